@@ -1,0 +1,105 @@
+//! The headless run: a scene stepped without a window, with state files and a JSON report.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use crate::lockstep::Lockstep;
+use crate::physics::Integrator;
+use crate::report::RunReport;
+use crate::scene::Scene;
+use crate::state_file::{StateFileError, read_state, write_state};
+
+/// How long to run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RunLength {
+    /// Simulated seconds (rounded to whole steps).
+    Duration(f64),
+    Steps(u64),
+}
+
+/// Which engine advances the balls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    Lockstep,
+}
+
+impl Engine {
+    pub fn name(self) -> &'static str {
+        match self {
+            Engine::Lockstep => "lockstep",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct HeadlessOptions {
+    /// What the scene is called in the report (its file or built-in name).
+    pub scene_file: String,
+    pub length: RunLength,
+    pub dt: Option<f64>,
+    pub integrator: Option<Integrator>,
+    pub engine: Engine,
+    pub state_in: Option<PathBuf>,
+    pub state_out: Option<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum HeadlessError {
+    #[error(transparent)]
+    State(#[from] StateFileError),
+    #[error("--state-in {file}: {count} balls, more than simulation.max-balls = {limit} of the scene")]
+    TooManyBalls { file: PathBuf, count: usize, limit: usize },
+}
+
+/// Number of steps of `dt` in `length`.
+pub fn steps_for(length: RunLength, dt: f64) -> u64 {
+    match length {
+        RunLength::Steps(n) => n,
+        RunLength::Duration(d) => (d / dt).round() as u64,
+    }
+}
+
+/// Runs `scene` as `options` say and returns the report. Writes `state_out` if asked.
+pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, HeadlessError> {
+    let mut scene = scene.clone();
+    if let Some(dt) = options.dt {
+        scene.dt = dt;
+    }
+    if let Some(integrator) = options.integrator {
+        scene.integrator = integrator;
+    }
+    if let Some(path) = &options.state_in {
+        let balls = read_state(path, &scene.field)?;
+        if balls.len() > scene.max_balls {
+            return Err(HeadlessError::TooManyBalls { file: path.clone(), count: balls.len(), limit: scene.max_balls });
+        }
+        scene.balls = balls;
+    }
+    let steps = steps_for(options.length, scene.dt);
+    let mut engine = Lockstep::new(&scene);
+    let start = engine.diagnostics();
+    let clock = Instant::now();
+    engine.run(steps);
+    let wall_seconds = clock.elapsed().as_secs_f64();
+    let end = engine.diagnostics();
+    if let Some(path) = &options.state_out {
+        write_state(path, &engine.bodies().to_balls())?;
+    }
+    Ok(RunReport {
+        scene: scene.name.clone(),
+        scene_file: options.scene_file.clone(),
+        engine: options.engine.name().into(),
+        integrator: scene.integrator.name().into(),
+        dt: scene.dt,
+        steps,
+        simulated_seconds: engine.time(),
+        wall_seconds,
+        steps_per_second: if wall_seconds > 0.0 { steps as f64 / wall_seconds } else { 0.0 },
+        balls: engine.bodies().len(),
+        active_effects: engine.active_effects().iter().map(|s| s.to_string()).collect(),
+        start,
+        end,
+        phases: Some(*engine.counters()),
+        state_hash: Some(format!("{:016x}", engine.state_hash())),
+    })
+}

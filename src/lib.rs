@@ -1,0 +1,19 @@
+//! ballfield: a 2D ball-physics game. Real balls — mass in kg, diameter in m, velocity in m/s —
+//! in a walled field under the effects a scene turns on.
+//!
+//! Rooms, dependencies pointing down only (see DESIGN.md):
+//! - [`physics`] — pure f64 functions on plain data;
+//! - [`scene`] / [`scenes`] — what is on the field (TOML);
+//! - [`lockstep`] — the deterministic reference engine;
+//! - [`headless`], [`state_file`], [`report`] — the command line's runs and files.
+
+pub mod headless;
+pub mod lockstep;
+pub mod physics;
+pub mod report;
+pub mod scene;
+pub mod scenes;
+pub mod state_file;
+
+pub use lockstep::{EngineError, Lockstep, StepCounters};
+pub use scene::{Scene, SceneError};

@@ -1,0 +1,345 @@
+//! The lockstep engine: every ball advances together with a fixed dt in one loop.
+//!
+//! Bit-reproducible: the same scene gives the same bits on every run, because every loop runs in
+//! index order and nothing depends on time or threads. It is the reference engine for tests,
+//! benches, replays and the accuracy report. A step is a short list of named phases, each timed
+//! into [`StepCounters`] (Box2D's `b2Profile`, Rapier's `Counters`):
+//!
+//! 1. **integrate** — the force passes of the enabled effects, inside the chosen integrator;
+//! 2. **broad phase** — the grid finds the touching pairs (only with collisions on);
+//! 3. **contacts** — one normal impulse per approaching pair, overlaps pushed apart;
+//! 4. **walls** — reflect and sum the wall impulses.
+
+use std::time::{Duration, Instant};
+
+use glam::DVec2;
+use serde::Serialize;
+
+use crate::physics::{
+    Ball, BallId, BallKind, Bodies, BroadPhase, ContactBody, Diagnostics, Effects, Field, Forces, Integrator,
+    IntegratorScratch, PointForce, WallImpulses, contact_ball_ball, contact_ball_wall, integrate, measure,
+};
+use crate::scene::Scene;
+
+/// Time spent in each phase, summed over steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StepCounters {
+    pub steps: u64,
+    #[serde(serialize_with = "secs")]
+    pub integrate: Duration,
+    #[serde(serialize_with = "secs")]
+    pub broad_phase: Duration,
+    #[serde(serialize_with = "secs")]
+    pub contacts: Duration,
+    #[serde(serialize_with = "secs")]
+    pub walls: Duration,
+    /// Touching pairs found by the broad phase.
+    pub touching_pairs: u64,
+    /// Ball–ball impulses applied (approaching pairs).
+    pub impulses: u64,
+    /// Ball–wall contacts.
+    pub wall_contacts: u64,
+}
+
+fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
+
+impl StepCounters {
+    pub fn total(&self) -> Duration {
+        self.integrate + self.broad_phase + self.contacts + self.walls
+    }
+}
+
+/// Why a change to the running field was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EngineError {
+    #[error("the field is full: {limit} balls is the limit (simulation.max-balls)")]
+    TooManyBalls { limit: usize },
+    #[error("no ball with id {0}")]
+    NoSuchBall(BallId),
+    #[error("invalid ball: {0}")]
+    InvalidBall(String),
+}
+
+/// The lockstep engine. Holds the state and only scratch memory besides.
+#[derive(Clone, Debug)]
+pub struct Lockstep {
+    field: Field,
+    effects: Effects,
+    forces: Forces,
+    integrator: Integrator,
+    dt: f64,
+    max_balls: usize,
+    bodies: Bodies,
+    pull: DVec2,
+    next_id: u32,
+    time: f64,
+    steps: u64,
+    wall_impulses: WallImpulses,
+    counters: StepCounters,
+    scratch: IntegratorScratch,
+    broad_phase: BroadPhase,
+    pairs: Vec<(u32, u32)>,
+}
+
+impl Lockstep {
+    pub fn new(scene: &Scene) -> Self {
+        Self::from_parts(scene.field, scene.effects, scene.integrator, scene.dt, scene.max_balls, &scene.balls)
+    }
+
+    pub fn from_parts(
+        field: Field,
+        effects: Effects,
+        integrator: Integrator,
+        dt: f64,
+        max_balls: usize,
+        balls: &[Ball],
+    ) -> Self {
+        let next_id = balls.iter().map(|b| b.id.0 + 1).max().unwrap_or(0);
+        Lockstep {
+            field,
+            effects,
+            forces: Forces::new(&effects),
+            integrator,
+            dt,
+            max_balls: max_balls.max(balls.len()),
+            bodies: Bodies::from_balls(balls),
+            pull: DVec2::ZERO,
+            next_id,
+            time: 0.0,
+            steps: 0,
+            wall_impulses: WallImpulses::default(),
+            counters: StepCounters::default(),
+            scratch: IntegratorScratch::default(),
+            broad_phase: BroadPhase::new(),
+            pairs: Vec::new(),
+        }
+    }
+
+    pub fn bodies(&self) -> &Bodies {
+        &self.bodies
+    }
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
+    pub fn integrator(&self) -> Integrator {
+        self.integrator
+    }
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+    /// Simulated time, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+    pub fn counters(&self) -> &StepCounters {
+        &self.counters
+    }
+    pub fn wall_impulses(&self) -> WallImpulses {
+        self.wall_impulses
+    }
+    pub fn pull(&self) -> DVec2 {
+        self.pull
+    }
+    pub fn max_balls(&self) -> usize {
+        self.max_balls
+    }
+
+    /// Names of the effects that run each step (walls always do).
+    pub fn active_effects(&self) -> Vec<&'static str> {
+        self.effects.active_names()
+    }
+
+    /// Turns effects on or off; the per-step work is rebuilt from them.
+    pub fn set_effects(&mut self, effects: Effects) {
+        self.effects = effects;
+        self.forces = Forces::new(&effects);
+    }
+
+    pub fn set_integrator(&mut self, integrator: Integrator) {
+        self.integrator = integrator;
+    }
+
+    pub fn set_dt(&mut self, dt: f64) {
+        self.dt = dt;
+    }
+
+    /// Sets the pull on the key ball (N). Ignored when there is no key ball.
+    pub fn set_pull(&mut self, force: DVec2) {
+        self.pull = force;
+    }
+
+    pub fn set_field_restitution(&mut self, restitution: f64) {
+        self.field.restitution = restitution;
+    }
+
+    /// Adds a ball, giving it a fresh id (its `id` field is ignored).
+    pub fn add_ball(&mut self, mut ball: Ball) -> Result<BallId, EngineError> {
+        if self.bodies.len() >= self.max_balls {
+            return Err(EngineError::TooManyBalls { limit: self.max_balls });
+        }
+        if !(ball.is_finite() && ball.mass > 0.0 && ball.diameter > 0.0) {
+            return Err(EngineError::InvalidBall(format!("{ball:?}")));
+        }
+        ball.id = BallId(self.next_id);
+        self.next_id += 1;
+        self.bodies.push(ball);
+        Ok(ball.id)
+    }
+
+    pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
+        let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
+        Ok(self.bodies.remove(index))
+    }
+
+    /// Removes the most recently added ball that is not the key ball.
+    pub fn remove_last(&mut self) -> Option<Ball> {
+        let index = (0..self.bodies.len()).rev().find(|&i| self.bodies.kind[i] != BallKind::Key)?;
+        Some(self.bodies.remove(index))
+    }
+
+    /// Advances `n` steps.
+    pub fn run(&mut self, n: u64) {
+        for _ in 0..n {
+            self.step();
+        }
+    }
+
+    /// Advances one step of `dt`.
+    pub fn step(&mut self) {
+        let t0 = Instant::now();
+        self.integrate_phase();
+        let t1 = Instant::now();
+        self.counters.integrate += t1 - t0;
+        if let Some(collisions) = self.effects.collisions {
+            self.broad_phase_phase();
+            let t2 = Instant::now();
+            self.counters.broad_phase += t2 - t1;
+            self.contacts_phase(collisions.restitution);
+            let t3 = Instant::now();
+            self.counters.contacts += t3 - t2;
+        }
+        let t4 = Instant::now();
+        self.walls_phase();
+        self.counters.walls += t4.elapsed();
+        self.steps += 1;
+        self.counters.steps += 1;
+        self.time = self.steps as f64 * self.dt;
+    }
+
+    fn integrate_phase(&mut self) {
+        let pull = match self.bodies.key_index() {
+            Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
+            _ => None,
+        };
+        let Bodies { position, velocity, mass, inverse_mass, diameter, .. } = &mut self.bodies;
+        if self.forces.is_empty() && pull.is_none() {
+            // No force at all: every integrator reduces to a straight drift, so that is all we do.
+            for (x, v) in position.iter_mut().zip(velocity.iter()) {
+                *x += *v * self.dt;
+            }
+            return;
+        }
+        let props = crate::physics::BodyProps { mass, inverse_mass, diameter };
+        let forces = &self.forces;
+        integrate(self.integrator, self.dt, position, velocity, &mut self.scratch, |x, v, a| {
+            forces.accelerations(props, pull, x, v, a)
+        });
+    }
+
+    fn broad_phase_phase(&mut self) {
+        let b = &self.bodies;
+        self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
+        self.pairs.clear();
+        let pairs = &mut self.pairs;
+        self.broad_phase.for_each_pair(&b.position, &b.radius, |i, j| {
+            let reach = b.radius[i] + b.radius[j];
+            if b.position[i].distance_squared(b.position[j]) < reach * reach {
+                pairs.push((i as u32, j as u32));
+            }
+        });
+        self.counters.touching_pairs += self.pairs.len() as u64;
+    }
+
+    fn contacts_phase(&mut self, restitution: f64) {
+        let b = &mut self.bodies;
+        let mut impulses = 0;
+        for &(i, j) in &self.pairs {
+            let (i, j) = (i as usize, j as usize);
+            let body = |k: usize| ContactBody {
+                id: b.id[k],
+                position: b.position[k],
+                velocity: b.velocity[k],
+                inverse_mass: b.inverse_mass[k],
+                radius: b.radius[k],
+            };
+            if let Some(c) = contact_ball_ball(&body(i), &body(j), restitution) {
+                if c.impulse > 0.0 {
+                    b.velocity[i] += c.velocity_change_a;
+                    b.velocity[j] += c.velocity_change_b;
+                    impulses += 1;
+                }
+                b.position[i] += c.shift_a;
+                b.position[j] += c.shift_b;
+            }
+        }
+        self.counters.impulses += impulses;
+    }
+
+    fn walls_phase(&mut self) {
+        let b = &mut self.bodies;
+        let mut touched = 0;
+        for i in 0..b.len() {
+            if contact_ball_wall(
+                &mut b.position[i],
+                &mut b.velocity[i],
+                b.radius[i],
+                b.mass[i],
+                &self.field,
+                &mut self.wall_impulses,
+            ) {
+                touched += 1;
+            }
+        }
+        self.counters.wall_contacts += touched;
+    }
+
+    /// Energies, momentum, overlap and wall impulses now.
+    pub fn diagnostics(&self) -> Diagnostics {
+        measure(&self.bodies, &self.field, &self.effects, self.wall_impulses)
+    }
+
+    /// A 64-bit FNV-1a hash of the exact bits of every ball's id, position, velocity, mass and
+    /// diameter, in order. Two runs agree on it only if they agree to the last bit.
+    pub fn state_hash(&self) -> u64 {
+        state_hash(&self.bodies)
+    }
+}
+
+/// FNV-1a over the exact bits of a set of balls (see [`Lockstep::state_hash`]).
+pub fn state_hash(b: &Bodies) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: u64| {
+        for byte in x.to_le_bytes() {
+            h ^= byte as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for i in 0..b.len() {
+        eat(b.id[i].0 as u64);
+        eat(b.position[i].x.to_bits());
+        eat(b.position[i].y.to_bits());
+        eat(b.velocity[i].x.to_bits());
+        eat(b.velocity[i].y.to_bits());
+        eat(b.mass[i].to_bits());
+        eat(b.diameter[i].to_bits());
+    }
+    h
+}

@@ -1,0 +1,144 @@
+//! The `ballfield` command line.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use ballfield::headless::{self, Engine, HeadlessOptions, RunLength};
+use ballfield::physics::Integrator;
+use ballfield::scenes;
+
+#[derive(Parser, Debug)]
+#[command(name = "ballfield", version, about = "A 2D ball-physics game with real units.")]
+struct Cli {
+    /// Scene to play: a TOML file, or the name of a built-in scene (default, vacuum, gravity,
+    /// drag, attraction, pile, gas, cradle).
+    #[arg(long, global = true, default_value = "default", value_name = "FILE")]
+    scene: String,
+
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a scene without a window and report on it.
+    Headless(HeadlessArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum EngineArg {
+    /// The deterministic fixed-step engine.
+    Lockstep,
+}
+
+#[derive(Args, Debug)]
+struct HeadlessArgs {
+    /// Simulated seconds to run [default: 10].
+    #[arg(long, value_name = "S", value_parser = positive_seconds, conflicts_with = "steps")]
+    duration: Option<f64>,
+    /// Number of steps to run.
+    #[arg(long, value_name = "N")]
+    steps: Option<u64>,
+    /// Time step, s (overrides the scene's simulation.dt).
+    #[arg(long, value_name = "S", value_parser = time_step)]
+    dt: Option<f64>,
+    /// explicit-euler, semi-implicit-euler, leapfrog, rk4 or yoshida4 (overrides the scene's).
+    #[arg(long, value_name = "NAME", value_parser = integrator)]
+    integrator: Option<Integrator>,
+    #[arg(long, value_enum, default_value = "lockstep")]
+    engine: EngineArg,
+    /// Start from this state (CSV: id,kind,x,y,vx,vy,mass,diameter) instead of the scene's balls.
+    #[arg(long, value_name = "F.csv")]
+    state_in: Option<PathBuf>,
+    /// Write the final state here.
+    #[arg(long, value_name = "F.csv")]
+    state_out: Option<PathBuf>,
+    /// Write the run report (JSON) here.
+    #[arg(long, value_name = "F.json")]
+    report: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` must be a finite number of seconds greater than zero"))
+    }
+}
+
+fn time_step(s: &str) -> Result<f64, String> {
+    let v = positive_seconds(s)?;
+    if v <= 1.0 { Ok(v) } else { Err(format!("`{s}` is longer than the largest allowed step of 1 s")) }
+}
+
+fn integrator(s: &str) -> Result<Integrator, String> {
+    s.parse().map_err(|e: ballfield::physics::UnknownIntegrator| e.to_string())
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("ballfield: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    let scene = scenes::resolve(&cli.scene)?;
+    match cli.command {
+        None => {
+            // Until the window lands, playing means a 10 s headless run with a summary.
+            let options = HeadlessOptions {
+                scene_file: cli.scene.clone(),
+                length: RunLength::Duration(10.0),
+                dt: None,
+                integrator: None,
+                engine: Engine::Lockstep,
+                state_in: None,
+                state_out: None,
+            };
+            let report = headless::run(&scene, &options)?;
+            println!("(no window yet: ran the scene headless for 10 simulated seconds)");
+            print!("{}", report.summary());
+        }
+        Some(Command::Headless(args)) => {
+            let length = match (args.duration, args.steps) {
+                (_, Some(n)) => RunLength::Steps(n),
+                (Some(d), None) => RunLength::Duration(d),
+                (None, None) => RunLength::Duration(10.0),
+            };
+            let options = HeadlessOptions {
+                scene_file: cli.scene.clone(),
+                length,
+                dt: args.dt,
+                integrator: args.integrator,
+                engine: match args.engine {
+                    EngineArg::Lockstep => Engine::Lockstep,
+                },
+                state_in: args.state_in,
+                state_out: args.state_out,
+            };
+            let report = headless::run(&scene, &options)?;
+            if let Some(path) = &args.report {
+                let json = serde_json::to_string_pretty(&report)?;
+                std::fs::write(path, json + "\n")
+                    .with_context(|| format!("--report {}: cannot write", path.display()))?;
+            }
+            if !args.quiet {
+                print!("{}", report.summary());
+            }
+        }
+    }
+    Ok(())
+}

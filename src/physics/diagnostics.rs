@@ -1,0 +1,114 @@
+//! Diagnostics: energies, momentum, overlap. Read-only measurements of a state.
+
+use glam::DVec2;
+use serde::{Deserialize, Serialize};
+
+use super::bodies::Bodies;
+use super::broad_phase::BroadPhase;
+use super::effects::{Effects, attraction_potential, gravity_potential};
+use super::field::{Field, WallImpulses};
+
+/// Everything the report says about one instant.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Diagnostics {
+    /// Σ ½·m·|v|², J.
+    pub kinetic: f64,
+    /// Potential energy in uniform gravity (zero at the field's floor line y = 0), J.
+    pub potential_gravity: f64,
+    /// Potential energy of mutual attraction (zero at infinite separation), J.
+    pub potential_attraction: f64,
+    /// Sum of the potentials of the active fields, J.
+    pub potential: f64,
+    /// Kinetic + potential, J.
+    pub total: f64,
+    /// Σ m·v, kg·m/s.
+    pub momentum: [f64; 2],
+    /// Largest overlap between two balls, m.
+    pub largest_overlap: f64,
+    /// The same as a fraction of the smaller diameter of that pair.
+    pub largest_overlap_ratio: f64,
+    /// Impulse taken by each wall so far, N·s.
+    pub wall_impulses: WallImpulses,
+    /// Number of balls with a non-finite position or velocity.
+    pub non_finite: usize,
+    /// Number of balls not wholly inside the field (1 µm tolerance).
+    pub outside: usize,
+}
+
+pub fn kinetic_energy(bodies: &Bodies) -> f64 {
+    bodies.mass.iter().zip(&bodies.velocity).map(|(m, v)| 0.5 * m * v.length_squared()).sum()
+}
+
+pub fn momentum(bodies: &Bodies) -> DVec2 {
+    bodies.mass.iter().zip(&bodies.velocity).map(|(m, v)| *m * *v).sum()
+}
+
+pub fn gravity_potential_energy(bodies: &Bodies, effects: &Effects) -> f64 {
+    match &effects.gravity {
+        Some(g) => bodies.mass.iter().zip(&bodies.position).map(|(m, p)| gravity_potential(*m, *p, g)).sum(),
+        None => 0.0,
+    }
+}
+
+/// O(n²): only for diagnostics, never in the step.
+pub fn attraction_potential_energy(bodies: &Bodies, effects: &Effects) -> f64 {
+    let Some(a) = &effects.attraction else { return 0.0 };
+    let n = bodies.len();
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in (i + 1)..n {
+            sum += attraction_potential(
+                bodies.position[i],
+                bodies.mass[i],
+                bodies.radius[i],
+                bodies.position[j],
+                bodies.mass[j],
+                bodies.radius[j],
+                a,
+            );
+        }
+    }
+    sum
+}
+
+/// Largest overlap (m) and its ratio to the smaller diameter of the pair, over all pairs.
+pub fn largest_overlap(bodies: &Bodies, field: &Field, scratch: &mut BroadPhase) -> (f64, f64) {
+    scratch.update(&bodies.position, &bodies.radius, field.width, field.height);
+    let mut worst = (0.0f64, 0.0f64);
+    scratch.for_each_pair(&bodies.position, &bodies.radius, |i, j| {
+        let reach = bodies.radius[i] + bodies.radius[j];
+        let overlap = reach - bodies.position[i].distance(bodies.position[j]);
+        if overlap > worst.0 {
+            worst = (overlap, overlap / bodies.diameter[i].min(bodies.diameter[j]));
+        }
+    });
+    worst
+}
+
+/// Measures a state.
+pub fn measure(bodies: &Bodies, field: &Field, effects: &Effects, wall_impulses: WallImpulses) -> Diagnostics {
+    let kinetic = kinetic_energy(bodies);
+    let potential_gravity = gravity_potential_energy(bodies, effects);
+    let potential_attraction = attraction_potential_energy(bodies, effects);
+    let potential = potential_gravity + potential_attraction;
+    let p = momentum(bodies);
+    let (largest_overlap, largest_overlap_ratio) = largest_overlap(bodies, field, &mut BroadPhase::new());
+    let non_finite =
+        (0..bodies.len()).filter(|&i| !(bodies.position[i].is_finite() && bodies.velocity[i].is_finite())).count();
+    let outside = (0..bodies.len())
+        .filter(|&i| !field.contains(bodies.position[i].x, bodies.position[i].y, bodies.radius[i], 1e-6))
+        .count();
+    Diagnostics {
+        kinetic,
+        potential_gravity,
+        potential_attraction,
+        potential,
+        total: kinetic + potential,
+        momentum: [p.x, p.y],
+        largest_overlap,
+        largest_overlap_ratio,
+        wall_impulses,
+        non_finite,
+        outside,
+    }
+}

@@ -1,0 +1,166 @@
+//! The physical effects a scene can turn on, each a small pure function.
+//!
+//! Every function here returns a force (N) or a potential energy (J) for one ball or one pair;
+//! the engines decide which effects run ([`crate::physics::Forces`] builds the per-step list).
+
+use glam::DVec2;
+use serde::{Deserialize, Serialize};
+
+use super::ball::disc_area;
+
+/// Standard gravity, m/s².
+pub const STANDARD_GRAVITY: f64 = 9.81;
+/// Density of air at sea level and 15 °C, kg/m³.
+pub const AIR_DENSITY: f64 = 1.225;
+/// Drag coefficient of a sphere at moderate Reynolds numbers.
+pub const SPHERE_DRAG_COEFFICIENT: f64 = 0.47;
+/// Dynamic viscosity of air at 15 °C, Pa·s (for the linear, Stokes, drag model).
+pub const AIR_VISCOSITY: f64 = 1.81e-5;
+/// Newton's gravitational constant, m³/(kg·s²).
+pub const NEWTON_G: f64 = 6.674e-11;
+
+/// Uniform gravity: every ball feels `m·g`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Gravity {
+    /// Acceleration vector, m/s² (y points up, so the default is `[0, -9.81]`).
+    pub g: DVec2,
+}
+
+impl Default for Gravity {
+    fn default() -> Self {
+        Gravity { g: DVec2::new(0.0, -STANDARD_GRAVITY) }
+    }
+}
+
+/// Air drag.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Drag {
+    /// `F = −½·ρ·C_d·A·|v|·v`, A = π(d/2)²: fast balls in air.
+    Quadratic { rho: f64, cd: f64 },
+    /// Stokes drag `F = −3·π·μ·d·v`: slow, small balls in a viscous fluid.
+    Linear { mu: f64 },
+}
+
+impl Default for Drag {
+    fn default() -> Self {
+        Drag::Quadratic { rho: AIR_DENSITY, cd: SPHERE_DRAG_COEFFICIENT }
+    }
+}
+
+/// Mutual Newtonian attraction between every pair of balls.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Attraction {
+    /// G, m³/(kg·s²). The real value is tiny; scenes scale it to make orbits visible.
+    pub g_constant: f64,
+}
+
+impl Default for Attraction {
+    fn default() -> Self {
+        Attraction { g_constant: NEWTON_G }
+    }
+}
+
+/// Elastic (or partly elastic) ball–ball collisions.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Collisions {
+    /// Coefficient of restitution e in [0, 1]: 1 keeps kinetic energy, 0 is perfectly plastic.
+    pub restitution: f64,
+}
+
+impl Default for Collisions {
+    fn default() -> Self {
+        Collisions { restitution: 1.0 }
+    }
+}
+
+/// Which effects are on. `None` is off and costs nothing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Effects {
+    pub gravity: Option<Gravity>,
+    pub drag: Option<Drag>,
+    pub attraction: Option<Attraction>,
+    pub collisions: Option<Collisions>,
+}
+
+impl Effects {
+    /// Names of the effects that are on, in a fixed order, for reports.
+    pub fn active_names(&self) -> Vec<&'static str> {
+        let mut names = Vec::new();
+        if self.gravity.is_some() {
+            names.push("gravity");
+        }
+        if self.drag.is_some() {
+            names.push("drag");
+        }
+        if self.attraction.is_some() {
+            names.push("attraction");
+        }
+        if self.collisions.is_some() {
+            names.push("collisions");
+        }
+        names
+    }
+}
+
+/// Force of uniform gravity on a ball of mass `mass`.
+#[inline]
+pub fn gravity_force(mass: f64, gravity: &Gravity) -> DVec2 {
+    mass * gravity.g
+}
+
+/// Potential energy of a ball in uniform gravity, zero at the origin (the field's lower-left corner):
+/// `U = −m·g·x`.
+#[inline]
+pub fn gravity_potential(mass: f64, position: DVec2, gravity: &Gravity) -> f64 {
+    -mass * gravity.g.dot(position)
+}
+
+/// Drag force on a ball of diameter `diameter` moving at `velocity` through still air.
+#[inline]
+pub fn drag_force(velocity: DVec2, diameter: f64, drag: &Drag) -> DVec2 {
+    match *drag {
+        Drag::Quadratic { rho, cd } => -0.5 * rho * cd * disc_area(diameter) * velocity.length() * velocity,
+        Drag::Linear { mu } => -3.0 * std::f64::consts::PI * mu * diameter * velocity,
+    }
+}
+
+/// Terminal speed of a ball falling under gravity `g` (magnitude) with quadratic drag:
+/// `v_t = sqrt(2·m·g / (ρ·C_d·A))`.
+pub fn quadratic_terminal_speed(mass: f64, diameter: f64, g: f64, rho: f64, cd: f64) -> f64 {
+    (2.0 * mass * g / (rho * cd * disc_area(diameter))).sqrt()
+}
+
+/// Attraction force on ball a (at `pa`, mass `ma`, radius `ra`) from ball b.
+///
+/// Outside contact (`r ≥ R`, `R = ra + rb`) this is Newton's `G·ma·mb/r²` along the line of centres.
+/// Balls have size, so when they overlap (`r < R`) the force is that of a point inside a uniform
+/// ball of radius R: `G·ma·mb·r/R³`. It is continuous at `r = R`, falls linearly to zero at
+/// `r = 0`, and is computed from the offset vector without dividing by r, so coincident centres
+/// give exactly zero force, never NaN or infinity.
+#[inline]
+pub fn attraction_force(pa: DVec2, ma: f64, ra: f64, pb: DVec2, mb: f64, rb: f64, attraction: &Attraction) -> DVec2 {
+    let d = pb - pa;
+    let r2 = d.length_squared();
+    let contact = ra + rb;
+    let gmm = attraction.g_constant * ma * mb;
+    if r2 >= contact * contact {
+        let r = r2.sqrt();
+        d * (gmm / (r2 * r))
+    } else {
+        d * (gmm / (contact * contact * contact))
+    }
+}
+
+/// Potential energy of a pair under [`attraction_force`]: `−G·ma·mb/r` outside contact and
+/// `−G·ma·mb·(3R² − r²)/(2R³)` inside, so that its gradient is the force and it is finite at r = 0.
+#[inline]
+pub fn attraction_potential(pa: DVec2, ma: f64, ra: f64, pb: DVec2, mb: f64, rb: f64, attraction: &Attraction) -> f64 {
+    let r2 = (pb - pa).length_squared();
+    let contact = ra + rb;
+    let gmm = attraction.g_constant * ma * mb;
+    if r2 >= contact * contact {
+        -gmm / r2.sqrt()
+    } else {
+        -gmm * (3.0 * contact * contact - r2) / (2.0 * contact * contact * contact)
+    }
+}

@@ -1,0 +1,68 @@
+//! The field: a rectangle `[0, width] × [0, height]` (m, y up) walled on four sides.
+
+use serde::{Deserialize, Serialize};
+
+/// The field the balls move in.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Field {
+    pub width: f64,
+    pub height: f64,
+    /// Coefficient of restitution of the walls, in [0, 1].
+    pub restitution: f64,
+}
+
+impl Default for Field {
+    fn default() -> Self {
+        Field { width: 70.0, height: 50.0, restitution: 1.0 }
+    }
+}
+
+impl Field {
+    /// Whether a ball of radius `radius` centred at (x, y) lies wholly inside, with a tolerance.
+    pub fn contains(&self, x: f64, y: f64, radius: f64, tolerance: f64) -> bool {
+        x - radius >= -tolerance
+            && x + radius <= self.width + tolerance
+            && y - radius >= -tolerance
+            && y + radius <= self.height + tolerance
+    }
+}
+
+/// One of the four walls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Wall {
+    Left,
+    Right,
+    Bottom,
+    Top,
+}
+
+/// Impulse taken by each wall (N·s, magnitudes), summed over a run: the field's pressure gauge.
+/// Divided by the elapsed time and the wall's length it is the pressure on that wall.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WallImpulses {
+    pub left: f64,
+    pub right: f64,
+    pub bottom: f64,
+    pub top: f64,
+}
+
+impl WallImpulses {
+    #[inline]
+    pub fn add(&mut self, wall: Wall, impulse: f64) {
+        match wall {
+            Wall::Left => self.left += impulse,
+            Wall::Right => self.right += impulse,
+            Wall::Bottom => self.bottom += impulse,
+            Wall::Top => self.top += impulse,
+        }
+    }
+
+    pub fn total(&self) -> f64 {
+        self.left + self.right + self.bottom + self.top
+    }
+
+    /// The net momentum the walls gave the balls: left pushes +x, right −x, bottom +y, top −y.
+    pub fn momentum_given(&self) -> glam::DVec2 {
+        glam::DVec2::new(self.left - self.right, self.bottom - self.top)
+    }
+}

@@ -1,0 +1,31 @@
+//! Pure physics: f64 functions on plain data. No threads, no GPU, no I/O; deterministic.
+//!
+//! One file per concept (Box2D's habit); submodules are private and what is public is
+//! re-exported here (Rapier's habit).
+
+mod ball;
+mod bodies;
+mod broad_phase;
+mod contact;
+mod diagnostics;
+mod effects;
+mod field;
+mod forces;
+mod integrator;
+
+pub use ball::{Ball, BallId, BallKind, disc_area};
+pub use bodies::Bodies;
+pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
+pub use contact::{BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall};
+pub use diagnostics::{
+    Diagnostics, attraction_potential_energy, gravity_potential_energy, kinetic_energy, largest_overlap, measure,
+    momentum,
+};
+pub use effects::{
+    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, Drag, Effects, Gravity, NEWTON_G, SPHERE_DRAG_COEFFICIENT,
+    STANDARD_GRAVITY, attraction_force, attraction_potential, drag_force, gravity_force, gravity_potential,
+    quadratic_terminal_speed,
+};
+pub use field::{Field, Wall, WallImpulses};
+pub use forces::{BodyProps, Forces, PointForce};
+pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};

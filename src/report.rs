@@ -1,0 +1,91 @@
+//! The run report: what ran, how long it took, and the state at the start and the end.
+
+use serde::Serialize;
+
+use crate::lockstep::StepCounters;
+use crate::physics::Diagnostics;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    pub scene: String,
+    pub scene_file: String,
+    pub engine: String,
+    pub integrator: String,
+    /// Time step, s.
+    pub dt: f64,
+    pub steps: u64,
+    /// Simulated seconds.
+    pub simulated_seconds: f64,
+    /// Wall-clock seconds spent stepping (diagnostics and I/O excluded).
+    pub wall_seconds: f64,
+    pub steps_per_second: f64,
+    pub balls: usize,
+    /// The effects that ran, in order; walls always run.
+    pub active_effects: Vec<String>,
+    pub start: Diagnostics,
+    pub end: Diagnostics,
+    /// Time per phase, summed over the run (lockstep).
+    pub phases: Option<StepCounters>,
+    /// FNV-1a of the final state's bits (lockstep), as 16 hex digits.
+    pub state_hash: Option<String>,
+}
+
+impl RunReport {
+    /// A one-screen summary for people.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        use std::fmt::Write;
+        let _ = writeln!(s, "scene        {} ({})", self.scene, self.scene_file);
+        let _ = writeln!(s, "engine       {}, integrator {}, dt {} s", self.engine, self.integrator, self.dt);
+        let _ = writeln!(
+            s,
+            "effects      {}",
+            if self.active_effects.is_empty() { "none (vacuum)".into() } else { self.active_effects.join(", ") }
+        );
+        let _ = writeln!(s, "balls        {}", self.balls);
+        let _ = writeln!(
+            s,
+            "ran          {} steps = {:.3} s simulated in {:.3} s wall ({:.0} steps/s)",
+            self.steps, self.simulated_seconds, self.wall_seconds, self.steps_per_second
+        );
+        let _ = writeln!(s, "                   {:>16} {:>16} {:>16}", "kinetic J", "potential J", "total J");
+        for (label, d) in [("start", &self.start), ("end", &self.end)] {
+            let _ = writeln!(s, "energy {label:<11} {:>16.6e} {:>16.6e} {:>16.6e}", d.kinetic, d.potential, d.total);
+        }
+        let _ = writeln!(
+            s,
+            "momentum     start [{:.6e}, {:.6e}]  end [{:.6e}, {:.6e}] kg·m/s",
+            self.start.momentum[0], self.start.momentum[1], self.end.momentum[0], self.end.momentum[1]
+        );
+        let w = &self.end.wall_impulses;
+        let _ = writeln!(
+            s,
+            "walls        impulse N·s: left {:.4e}, right {:.4e}, bottom {:.4e}, top {:.4e}",
+            w.left, w.right, w.bottom, w.top
+        );
+        let _ = writeln!(
+            s,
+            "overlap      largest {:.3e} m ({:.3}% of a diameter); {} outside, {} non-finite",
+            self.end.largest_overlap,
+            100.0 * self.end.largest_overlap_ratio,
+            self.end.outside,
+            self.end.non_finite
+        );
+        if let Some(p) = &self.phases {
+            let total = p.total().as_secs_f64().max(1e-12);
+            let pct = |d: std::time::Duration| 100.0 * d.as_secs_f64() / total;
+            let _ = writeln!(
+                s,
+                "phases       integrate {:.0}%, broad phase {:.0}%, contacts {:.0}%, walls {:.0}%",
+                pct(p.integrate),
+                pct(p.broad_phase),
+                pct(p.contacts),
+                pct(p.walls)
+            );
+        }
+        if let Some(h) = &self.state_hash {
+            let _ = writeln!(s, "state hash   {h}");
+        }
+        s
+    }
+}

@@ -1,0 +1,45 @@
+//! The scenes shipped in `assets/scenes/`, built into the binary so `--scene gas` works anywhere.
+
+use std::path::Path;
+
+use crate::scene::{Origin, Scene, SceneError};
+
+/// `(name, TOML text)` of every built-in scene.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("default", include_str!("../assets/scenes/default.toml")),
+    ("vacuum", include_str!("../assets/scenes/vacuum.toml")),
+    ("gravity", include_str!("../assets/scenes/gravity.toml")),
+    ("drag", include_str!("../assets/scenes/drag.toml")),
+    ("attraction", include_str!("../assets/scenes/attraction.toml")),
+    ("pile", include_str!("../assets/scenes/pile.toml")),
+    ("gas", include_str!("../assets/scenes/gas.toml")),
+    ("cradle", include_str!("../assets/scenes/cradle.toml")),
+];
+
+/// Loads a built-in scene by name.
+pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
+    BUILTIN
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(n, text)| Scene::from_toml_str(text, &Origin(format!("assets/scenes/{n}.toml"))))
+}
+
+/// Resolves a `--scene` argument: an existing file, or else the name of a built-in scene.
+pub fn resolve(arg: &str) -> Result<Scene, SceneError> {
+    let path = Path::new(arg);
+    if path.exists() {
+        return Scene::load(path);
+    }
+    let stem = arg.strip_suffix(".toml").unwrap_or(arg);
+    if let Some(scene) = builtin(stem) {
+        return scene;
+    }
+    let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+    Err(SceneError::Read {
+        file: path.to_path_buf(),
+        source: std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("no such file, and not a built-in scene (built-in: {})", names.join(", ")),
+        ),
+    })
+}
