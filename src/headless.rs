@@ -45,8 +45,10 @@ pub struct HeadlessOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum HeadlessError {
-    #[error(transparent)]
-    State(#[from] StateFileError),
+    #[error("--state-in: {0}")]
+    StateIn(StateFileError),
+    #[error("--state-out: {0}")]
+    StateOut(StateFileError),
     #[error("--state-in {file}: {count} balls, more than simulation.max-balls = {limit} of the scene")]
     TooManyBalls { file: PathBuf, count: usize, limit: usize },
 }
@@ -69,7 +71,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
         scene.integrator = integrator;
     }
     if let Some(path) = &options.state_in {
-        let balls = read_state(path, &scene.field)?;
+        let balls = read_state(path, &scene.field).map_err(HeadlessError::StateIn)?;
         if balls.len() > scene.max_balls {
             return Err(HeadlessError::TooManyBalls { file: path.clone(), count: balls.len(), limit: scene.max_balls });
         }
@@ -83,7 +85,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
     let wall_seconds = clock.elapsed().as_secs_f64();
     let end = engine.diagnostics();
     if let Some(path) = &options.state_out {
-        write_state(path, &engine.bodies().to_balls())?;
+        write_state(path, &engine.bodies().to_balls()).map_err(HeadlessError::StateOut)?;
     }
     Ok(RunReport {
         scene: scene.name.clone(),

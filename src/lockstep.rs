@@ -249,7 +249,8 @@ impl Lockstep {
         }
         let props = crate::physics::BodyProps { mass, inverse_mass, diameter };
         let forces = &self.forces;
-        integrate(self.integrator, self.dt, position, velocity, &mut self.scratch, |x, v, a| {
+        let velocity_dependent = forces.depends_on_velocity();
+        integrate(self.integrator, self.dt, position, velocity, velocity_dependent, &mut self.scratch, |x, v, a| {
             forces.accelerations(props, pull, x, v, a)
         });
     }
@@ -259,12 +260,7 @@ impl Lockstep {
         self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
         self.pairs.clear();
         let pairs = &mut self.pairs;
-        self.broad_phase.for_each_pair(&b.position, &b.radius, |i, j| {
-            let reach = b.radius[i] + b.radius[j];
-            if b.position[i].distance_squared(b.position[j]) < reach * reach {
-                pairs.push((i as u32, j as u32));
-            }
-        });
+        self.broad_phase.for_each_touching_pair(&b.position, &b.radius, |i, j| pairs.push((i as u32, j as u32)));
         self.counters.touching_pairs += self.pairs.len() as u64;
     }
 
@@ -294,14 +290,19 @@ impl Lockstep {
     }
 
     fn walls_phase(&mut self) {
+        let gravity = self.effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
+        let key = self.bodies.key_index();
         let b = &mut self.bodies;
         let mut touched = 0;
         for i in 0..b.len() {
+            // The ball's uniform acceleration during the step, for an exact bounce.
+            let acceleration = if Some(i) == key { gravity + self.pull * b.inverse_mass[i] } else { gravity };
             if contact_ball_wall(
                 &mut b.position[i],
                 &mut b.velocity[i],
                 b.radius[i],
                 b.mass[i],
+                acceleration,
                 &self.field,
                 &mut self.wall_impulses,
             ) {

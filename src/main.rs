@@ -37,13 +37,13 @@ enum EngineArg {
 #[derive(Args, Debug)]
 struct HeadlessArgs {
     /// Simulated seconds to run [default: 10].
-    #[arg(long, value_name = "S", value_parser = positive_seconds, conflicts_with = "steps")]
+    #[arg(long, value_name = "S", value_parser = positive_seconds, conflicts_with = "steps", allow_negative_numbers = true)]
     duration: Option<f64>,
     /// Number of steps to run.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = step_count, allow_negative_numbers = true)]
     steps: Option<u64>,
     /// Time step, s (overrides the scene's simulation.dt).
-    #[arg(long, value_name = "S", value_parser = time_step)]
+    #[arg(long, value_name = "S", value_parser = time_step, allow_negative_numbers = true)]
     dt: Option<f64>,
     /// explicit-euler, semi-implicit-euler, leapfrog, rk4 or yoshida4 (overrides the scene's).
     #[arg(long, value_name = "NAME", value_parser = integrator)]
@@ -71,6 +71,14 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
     } else {
         Err(format!("`{s}` must be a finite number of seconds greater than zero"))
     }
+}
+
+/// At most this many steps in one run (a typo such as `--duration 1e300` would never end).
+const MAX_STEPS: u64 = 10_000_000_000;
+
+fn step_count(s: &str) -> Result<u64, String> {
+    let v: u64 = s.parse().map_err(|_| format!("`{s}` is not a whole number of steps (0 or more)"))?;
+    if v <= MAX_STEPS { Ok(v) } else { Err(format!("`{s}` is more than {MAX_STEPS} steps")) }
 }
 
 fn time_step(s: &str) -> Result<f64, String> {
@@ -118,6 +126,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 (Some(d), None) => RunLength::Duration(d),
                 (None, None) => RunLength::Duration(10.0),
             };
+            let dt = args.dt.unwrap_or(scene.dt);
+            let steps = headless::steps_for(length, dt);
+            if steps > MAX_STEPS {
+                anyhow::bail!(
+                    "--duration {}: at dt = {dt} s that is {steps} steps, more than {MAX_STEPS}",
+                    args.duration.unwrap_or_default()
+                );
+            }
             let options = HeadlessOptions {
                 scene_file: cli.scene.clone(),
                 length,

@@ -56,12 +56,10 @@ impl fmt::Display for Origin {
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{file}: cannot read the scene: {source}")]
-    Read {
-        file: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The cause is part of the message (and deliberately not a `source()`, so that printing
+    /// the error chain does not say it twice).
+    #[error("{file}: cannot read the scene: {cause}")]
+    Read { file: PathBuf, cause: std::io::Error },
     /// The TOML is malformed, a key is unknown or missing, or a value has the wrong type.
     #[error("{file}:{line}: {message}")]
     Parse { file: String, line: usize, message: String },
@@ -72,6 +70,17 @@ pub enum SceneError {
 
 // ---------------------------------------------------------------------------------------------
 // The file format (serde). Keys are kebab-case; unknown keys are rejected; an absent effect is off.
+
+/// Reads exactly N numbers: serde's own `[f64; N]` silently ignores extra elements in TOML.
+fn exact<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+    let v: Vec<f64> = Deserialize::deserialize(d)?;
+    let len = v.len();
+    v.try_into().map_err(|_| serde::de::Error::invalid_length(len, &format!("length {N}").as_str()))
+}
+
+fn exact_opt<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Result<Option<[f64; N]>, D::Error> {
+    exact::<D, N>(d).map(Some)
+}
 
 fn default_width() -> f64 {
     70.0
@@ -164,6 +173,7 @@ impl Default for CollisionsSpec {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case", default)]
 struct GravitySpec {
+    #[serde(deserialize_with = "exact")]
     g: [f64; 2],
 }
 impl Default for GravitySpec {
@@ -204,8 +214,9 @@ fn default_pull() -> f64 {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 struct KeyBallSpec {
+    #[serde(deserialize_with = "exact")]
     position: [f64; 2],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact")]
     velocity: [f64; 2],
     mass: f64,
     diameter: f64,
@@ -216,8 +227,9 @@ struct KeyBallSpec {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 struct BallSpec {
+    #[serde(deserialize_with = "exact")]
     position: [f64; 2],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact")]
     velocity: [f64; 2],
     mass: f64,
     diameter: f64,
@@ -233,6 +245,7 @@ struct GenerateSpec {
     #[serde(default)]
     speed: f64,
     /// `[x0, y0, x1, y1]` to place them in; the whole field by default.
+    #[serde(default, deserialize_with = "exact_opt")]
     region: Option<[f64; 4]>,
     /// `random` (uniform, no overlap) or `lattice` (hexagonal rows from the bottom-left).
     #[serde(default = "default_layout")]
@@ -293,6 +306,33 @@ fn line_of_key(source: &str, path: &[Seg]) -> Option<usize> {
         }
     }
     Some(line_of_offset(source, value.span().start))
+}
+
+/// The key path (`balls[1].mass`) of the key written at byte `offset`: the nearest table header
+/// above it (`[field]`, or the n-th `[[balls]]`) and the key at the offset.
+fn path_at_offset(source: &str, offset: usize) -> Option<String> {
+    let offset = offset.min(source.len());
+    let before = &source[..offset];
+    let mut table = String::new();
+    let mut arrays: HashMap<String, usize> = HashMap::new();
+    for line in before.lines() {
+        let t = line.split('#').next().unwrap_or("").trim();
+        if let Some(name) = t.strip_prefix("[[").and_then(|r| r.strip_suffix("]]")) {
+            let name = name.trim().to_string();
+            let n = arrays.entry(name.clone()).and_modify(|n| *n += 1).or_insert(0);
+            table = format!("{name}[{n}]");
+        } else if let Some(name) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            table = name.trim().to_string();
+        }
+    }
+    let key = source[offset..].split(['=', '\n']).next().unwrap_or("").trim();
+    let key_ok = !key.is_empty() && key.chars().all(|c| c.is_alphanumeric() || c == '-' || c == '_');
+    match (table.is_empty(), key_ok) {
+        (true, true) => Some(key.to_string()),
+        (false, true) => Some(format!("{table}.{key}")),
+        (false, false) => Some(table),
+        (true, false) => None,
+    }
 }
 
 struct Checker<'a> {
@@ -405,15 +445,35 @@ impl Scene {
     /// Reads and checks a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let text =
-            std::fs::read_to_string(path).map_err(|source| SceneError::Read { file: path.to_path_buf(), source })?;
+            std::fs::read_to_string(path).map_err(|cause| SceneError::Read { file: path.to_path_buf(), cause })?;
         Scene::from_toml_str(&text, &Origin(path.display().to_string()))
     }
 
     /// Parses and checks scene text; `origin` names it in messages.
     pub fn from_toml_str(source: &str, origin: &Origin) -> Result<Scene, SceneError> {
-        let file: SceneFile = toml::from_str(source).map_err(|e| {
-            let line = e.span().map(|s| line_of_offset(source, s.start)).unwrap_or(0);
-            SceneError::Parse { file: origin.0.clone(), line, message: e.message().trim().to_string() }
+        let parse_error = |e: toml::de::Error, path: Option<String>| {
+            let offset = e.span().map(|s| s.start);
+            let line = offset.map(|o| line_of_offset(source, o)).unwrap_or(0);
+            // Syntax errors (a duplicate key, say) come before serde knows a path: find it from
+            // the position instead.
+            let path = path.or_else(|| offset.and_then(|o| path_at_offset(source, o)));
+            let message = e.message().trim();
+            // serde names a missing field in the message, not in the path: add it to the path.
+            let path = match (path, message.strip_prefix("missing field `").and_then(|r| r.split('`').next())) {
+                (Some(p), Some(field)) if !p.is_empty() && p != "." => Some(format!("{p}.{field}")),
+                (None, Some(field)) => Some(field.to_string()),
+                (p, _) => p,
+            };
+            let message = match path {
+                Some(p) if !p.is_empty() && p != "." => format!("`{p}`: {message}"),
+                _ => message.to_string(),
+            };
+            SceneError::Parse { file: origin.0.clone(), line, message }
+        };
+        let deserializer = toml::de::Deserializer::parse(source).map_err(|e| parse_error(e, None))?;
+        let file: SceneFile = serde_path_to_error::deserialize(deserializer).map_err(|e| {
+            let path = e.path().to_string();
+            parse_error(e.into_inner(), Some(path))
         })?;
         let c = Checker { origin, source };
         build(file, &c)
@@ -592,6 +652,13 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
         let mass = c.positive(&with(&p, Key("mass")), g.mass)?;
         let speed = c.non_negative(&with(&p, Key("speed")), g.speed)?;
         let gap = c.non_negative(&with(&p, Key("gap")), g.gap)?;
+        if diameter > width.min(height) {
+            return Err(c.invalid(
+                with(&p, Key("diameter")),
+                diameter,
+                format!("is larger than the field ({width} m × {height} m)"),
+            ));
+        }
         let r = 0.5 * diameter;
         let region = match g.region {
             None => [0.0, 0.0, width, height],
@@ -650,17 +717,24 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
                 // half a spacing. Spots taken by other balls are skipped.
                 let spacing = diameter * (1.0 + gap);
                 let row_height = spacing * 3f64.sqrt() / 2.0;
+                // Spots are counted, not stepped through by adding floats (which stalls when the
+                // spacing is below the rounding of x); and the search is bounded.
+                let rows = ((region[3] - region[1] - diameter) / row_height).floor() as u64 + 1;
+                let cols = ((region[2] - region[0] - diameter) / spacing).floor() as u64 + 1;
+                let budget = (count as u64).saturating_mul(20).saturating_add(1_000_000);
                 let mut n = 0;
-                let mut row = 0;
-                'rows: loop {
+                let mut tried = 0u64;
+                'rows: for row in 0..rows {
                     let y = region[1] + r + row as f64 * row_height;
-                    if y + r > region[3] {
-                        break;
-                    }
-                    let mut x = region[0] + r + if row % 2 == 1 { 0.5 * spacing } else { 0.0 };
-                    while x + r <= region[2] {
-                        if n == count {
+                    let shift = if row % 2 == 1 { 0.5 * spacing } else { 0.0 };
+                    for col in 0..cols {
+                        if n == count || tried >= budget {
                             break 'rows;
+                        }
+                        tried += 1;
+                        let x = region[0] + r + shift + col as f64 * spacing;
+                        if x + r > region[2] {
+                            continue;
                         }
                         let pos = DVec2::new(x, y);
                         if placed.overlapping(pos, r).is_none() {
@@ -668,9 +742,7 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
                             add(pos, &mut rng, &mut balls);
                             n += 1;
                         }
-                        x += spacing;
                     }
-                    row += 1;
                 }
                 if n < count {
                     return Err(c.invalid(

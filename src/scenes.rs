@@ -37,7 +37,7 @@ pub fn resolve(arg: &str) -> Result<Scene, SceneError> {
     let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
     Err(SceneError::Read {
         file: path.to_path_buf(),
-        source: std::io::Error::new(
+        cause: std::io::Error::new(
             std::io::ErrorKind::NotFound,
             format!("no such file, and not a built-in scene (built-in: {})", names.join(", ")),
         ),

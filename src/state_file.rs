@@ -16,12 +16,9 @@ pub const HEADER: [&str; 8] = ["id", "kind", "x", "y", "vx", "vy", "mass", "diam
 
 #[derive(Debug, thiserror::Error)]
 pub enum StateFileError {
-    #[error("{file}: {source}")]
-    Io {
-        file: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The cause is part of the message, not a `source()`, so a printed chain says it once.
+    #[error("{file}: {cause}")]
+    Io { file: PathBuf, cause: std::io::Error },
     #[error("{file}:{line}: {message}")]
     Malformed { file: PathBuf, line: u64, message: String },
     #[error("{file}:{line}: `{key}` = {value}: {problem}")]
@@ -40,9 +37,20 @@ struct Row {
     diameter: f64,
 }
 
+/// Line number (from 1) of byte `offset` in `text`.
+/// Blank lines before the offset (which the csv reader skips as part of the record) are stepped over.
+fn line_at(text: &str, offset: usize) -> u64 {
+    let bytes = text.as_bytes();
+    let mut offset = offset.min(bytes.len());
+    while offset < bytes.len() && (bytes[offset] == b'\n' || bytes[offset] == b'\r') {
+        offset += 1;
+    }
+    bytes[..offset].iter().filter(|&&b| b == b'\n').count() as u64 + 1
+}
+
 /// Writes the balls, in order, to `path`.
 pub fn write_state(path: &Path, balls: &[Ball]) -> Result<(), StateFileError> {
-    let io = |e: csv::Error| StateFileError::Io { file: path.to_path_buf(), source: std::io::Error::other(e) };
+    let io = |e: csv::Error| StateFileError::Io { file: path.to_path_buf(), cause: std::io::Error::other(e) };
     let mut w = csv::Writer::from_path(path).map_err(io)?;
     for b in balls {
         w.serialize(Row {
@@ -57,13 +65,12 @@ pub fn write_state(path: &Path, balls: &[Ball]) -> Result<(), StateFileError> {
         })
         .map_err(io)?;
     }
-    w.flush().map_err(|source| StateFileError::Io { file: path.to_path_buf(), source })
+    w.flush().map_err(|cause| StateFileError::Io { file: path.to_path_buf(), cause })
 }
 
 /// Reads a state file, checking every value against `field`.
 pub fn read_state(path: &Path, field: &Field) -> Result<Vec<Ball>, StateFileError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|source| StateFileError::Io { file: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|cause| StateFileError::Io { file: path.to_path_buf(), cause })?;
     parse_state(&text, path, field)
 }
 
@@ -87,20 +94,14 @@ pub fn parse_state(text: &str, path: &Path, field: &Field) -> Result<Vec<Ball>, 
     let mut balls = Vec::new();
     let mut ids = HashSet::new();
     let mut keys = 0;
-    for record in reader.deserialize::<Row>() {
-        let row = record.map_err(|e| StateFileError::Malformed {
+    for record in reader.records() {
+        let record = record.map_err(|e| StateFileError::Malformed {
             file: file.clone(),
-            line: e.position().map(|p| p.line()).unwrap_or(0),
-            message: match e.kind() {
-                csv::ErrorKind::Deserialize { err, .. } => format!(
-                    "column `{}`: {}",
-                    err.field().and_then(|f| HEADER.get(f as usize)).unwrap_or(&"?"),
-                    err.kind()
-                ),
-                _ => e.to_string(),
-            },
+            line: e.position().map(|p| line_at(text, p.byte() as usize)).unwrap_or(0),
+            message: e.to_string(),
         })?;
-        let line = balls.len() as u64 + 2;
+        // The csv reader's own line count skips blank lines; count them from the byte offset.
+        let line = record.position().map(|p| line_at(text, p.byte() as usize)).unwrap_or(0);
         let bad = |key: &str, value: String, problem: &str| StateFileError::Invalid {
             file: file.clone(),
             line,
@@ -108,10 +109,34 @@ pub fn parse_state(text: &str, path: &Path, field: &Field) -> Result<Vec<Ball>, 
             value,
             problem: problem.into(),
         };
-        let kind = match row.kind.as_str() {
+        if record.len() != HEADER.len() {
+            return Err(StateFileError::Malformed {
+                file: file.clone(),
+                line,
+                message: format!("{} fields, expected {}", record.len(), HEADER.len()),
+            });
+        }
+        let number = |k: usize| -> Result<f64, StateFileError> {
+            record[k].trim().parse::<f64>().map_err(|_| bad(HEADER[k], record[k].to_string(), "is not a number"))
+        };
+        let id: u32 = record[0]
+            .trim()
+            .parse()
+            .map_err(|_| bad("id", record[0].to_string(), "must be a whole number from 0 to 4294967295"))?;
+        let kind = match record[1].trim() {
             "key" => BallKind::Key,
             "ball" => BallKind::Ball,
-            other => return Err(bad("kind", other.into(), "must be `key` or `ball`")),
+            other => return Err(bad("kind", other.to_string(), "must be `key` or `ball`")),
+        };
+        let row = Row {
+            id,
+            kind: record[1].trim().to_string(),
+            x: number(2)?,
+            y: number(3)?,
+            vx: number(4)?,
+            vy: number(5)?,
+            mass: number(6)?,
+            diameter: number(7)?,
         };
         for (key, v) in [("x", row.x), ("y", row.y), ("vx", row.vx), ("vy", row.vy)] {
             if !v.is_finite() {

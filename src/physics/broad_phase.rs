@@ -25,6 +25,8 @@ pub struct BroadPhase {
     /// `cell_start[c]..cell_start[c + 1]` indexes `entries` for cell c.
     cell_start: Vec<u32>,
     entries: Vec<u32>,
+    /// `(x, y, radius)` of `entries[k]`, copied so the pair loops read memory in order.
+    entry_shape: Vec<[f64; 3]>,
     /// Layout key: the ball count and the diameters' sum the layout was chosen for.
     layout_key: (usize, u64),
 }
@@ -104,6 +106,8 @@ impl BroadPhase {
         let total = self.cell_start[cells] as usize;
         self.entries.clear();
         self.entries.resize(total, 0);
+        self.entry_shape.clear();
+        self.entry_shape.resize(total, [0.0; 3]);
         // Fill using the starts as cursors, then restore them by shifting back one cell.
         for (i, &c) in self.cell_of.iter().enumerate() {
             if c == u32::MAX {
@@ -111,6 +115,7 @@ impl BroadPhase {
             }
             let slot = &mut self.cell_start[c as usize];
             self.entries[*slot as usize] = i as u32;
+            self.entry_shape[*slot as usize] = [positions[i].x, positions[i].y, radii[i]];
             *slot += 1;
         }
         for c in (1..=cells).rev() {
@@ -120,28 +125,36 @@ impl BroadPhase {
     }
 
     #[inline]
-    fn cell_entries(&self, c: usize) -> &[u32] {
-        &self.entries[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    fn cell_range(&self, c: usize) -> std::ops::Range<usize> {
+        self.cell_start[c] as usize..self.cell_start[c + 1] as usize
     }
 
-    /// Calls `f(i, j)` once for every candidate pair: every pair of balls that may touch is
-    /// visited exactly once (some that don't touch are visited too). The order is deterministic.
-    /// `positions` must be those passed to the last [`BroadPhase::update`] (give or take the small
-    /// moves the contact solver makes) for the big-ball queries.
-    pub fn for_each_pair<F: FnMut(usize, usize)>(&self, positions: &[DVec2], radii: &[f64], mut f: F) {
+    /// Calls `f(i, j)` once for every pair of balls that overlap (centres closer than the sum of
+    /// the radii) at the positions given to the last [`BroadPhase::update`]. The order is
+    /// deterministic: cells in row-major order, then the order of the balls within them.
+    pub fn for_each_touching_pair<F: FnMut(usize, usize)>(&self, positions: &[DVec2], radii: &[f64], mut f: F) {
         let (cols, rows) = (self.cols, self.rows);
+        let shape = &self.entry_shape;
+        let entries = &self.entries;
+        #[inline(always)]
+        fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
+            let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
+            dx * dx + dy * dy < reach * reach
+        }
         for cy in 0..rows {
             for cx in 0..cols {
                 let c = cy * cols + cx;
-                let here = self.cell_entries(c);
+                let here = self.cell_range(c);
                 if here.is_empty() {
                     continue;
                 }
                 // Half stencil: this cell, then E, NW, N, NE, so each neighbouring pair of cells
                 // is visited from one side only.
-                for (k, &a) in here.iter().enumerate() {
-                    for &b in &here[k + 1..] {
-                        f(a as usize, b as usize);
+                for k in here.clone() {
+                    for m in (k + 1)..here.end {
+                        if touching(&shape[k], &shape[m]) {
+                            f(entries[k] as usize, entries[m] as usize);
+                        }
                     }
                 }
                 let right = cx + 1 < cols;
@@ -163,10 +176,12 @@ impl BroadPhase {
                     if nc == usize::MAX {
                         continue;
                     }
-                    let there = self.cell_entries(nc);
-                    for &a in here {
-                        for &b in there {
-                            f(a as usize, b as usize);
+                    let there = self.cell_range(nc);
+                    for k in here.clone() {
+                        for m in there.clone() {
+                            if touching(&shape[k], &shape[m]) {
+                                f(entries[k] as usize, entries[m] as usize);
+                            }
                         }
                     }
                 }
@@ -174,9 +189,13 @@ impl BroadPhase {
         }
         // Big balls: against each other directly, and against the small balls in the cells their
         // bounding box (grown by one cell) covers.
+        let shape_of = |i: usize| [positions[i].x, positions[i].y, radii[i]];
         for (k, &a) in self.big.iter().enumerate() {
+            let sa = shape_of(a as usize);
             for &b in &self.big[k + 1..] {
-                f(a as usize, b as usize);
+                if touching(&sa, &shape_of(b as usize)) {
+                    f(a as usize, b as usize);
+                }
             }
             let p = positions[a as usize];
             let reach = radii[a as usize] + self.cell;
@@ -184,8 +203,10 @@ impl BroadPhase {
             let (x1, y1) = self.cell_coords(p + DVec2::splat(reach));
             for cy in y0..=y1 {
                 for cx in x0..=x1 {
-                    for &b in self.cell_entries(cy * cols + cx) {
-                        f(a as usize, b as usize);
+                    for m in self.cell_range(cy * cols + cx) {
+                        if touching(&sa, &shape[m]) {
+                            f(a as usize, entries[m] as usize);
+                        }
                     }
                 }
             }

@@ -81,16 +81,66 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64) -> 
     })
 }
 
-/// Keeps a ball inside the field: a ball past a wall is brought back (its overshoot mirrored and
-/// scaled by the restitution, so a free bounce loses no distance) and, if it was moving into the
-/// wall, its normal velocity is reflected with the field's restitution. The impulse the wall
-/// takes, `m·(1 + e)·|v_n|`, is added to `impulses`. Returns whether any wall was touched.
+/// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's
+/// surface from the wall (negative: past it), `u` the normal velocity (negative: outwards), `alpha`
+/// the normal component of the ball's constant acceleration during the step. Returns the new
+/// `(s, u)` and the impulse the wall took.
+///
+/// Rather than mirroring the overshoot (which gains `2·m·g·δ` of energy per bounce under gravity),
+/// the crossing is rewound along the constant-acceleration path to the time τ the ball met the
+/// wall, its normal velocity there is reflected with the restitution, and the path is replayed for
+/// τ. For e = 1 and constant acceleration this is exact: the ball leaves on the parabola it would
+/// have followed. When the rewind has no solution (the integrator's state is not on that parabola,
+/// as happens to a ball resting on the floor) it falls back to mirroring.
+#[inline]
+fn bounce(s: f64, u: f64, alpha: f64, e: f64, mass: f64) -> (f64, f64, f64) {
+    if u >= 0.0 {
+        // Past the wall but already moving in (pushed there by a contact): just put it back.
+        return (0.0, u, 0.0);
+    }
+    // Solve ½·α·τ² − u·τ + s = 0 for the smallest τ > 0 (stable form of the quadratic formula).
+    let (a, b, c) = (0.5 * alpha, -u, s);
+    let disc = b * b - 4.0 * a * c;
+    let (mut s_new, mut u_new, mut impulse) = if disc >= 0.0 {
+        let q = -0.5 * (b + disc.sqrt()); // b > 0, so q < 0 and no cancellation
+        let tau = c / q;
+        let u_contact = u - alpha * tau;
+        if tau >= 0.0 && u_contact < 0.0 {
+            (
+                -e * u_contact * tau + 0.5 * alpha * tau * tau,
+                -e * u_contact + alpha * tau,
+                -mass * (1.0 + e) * u_contact,
+            )
+        } else {
+            (-e * s, -e * u, -mass * (1.0 + e) * u)
+        }
+    } else {
+        (-e * s, -e * u, -mass * (1.0 + e) * u)
+    };
+    if s_new < 0.0 {
+        // Still at the wall after the replay (e < 1, or resting): stay on it, stop moving out.
+        s_new = 0.0;
+        if u_new < 0.0 {
+            impulse -= mass * u_new;
+            u_new = 0.0;
+        }
+    }
+    (s_new, u_new, impulse)
+}
+
+/// Keeps a ball inside the field: a ball past a wall is brought back and, if it was moving into
+/// the wall, its normal velocity is reflected with the field's restitution (see `bounce` for how
+/// the overshoot is handled exactly under a constant acceleration such as gravity). The impulse
+/// the wall takes, `m·(1 + e)·|v_n|` at contact, is added to `impulses`. `acceleration` is the
+/// ball's uniform acceleration during the step (gravity, plus the pull on the key ball), or zero.
+/// Returns whether any wall was touched.
 #[inline]
 pub fn contact_ball_wall(
     position: &mut DVec2,
     velocity: &mut DVec2,
     radius: f64,
     mass: f64,
+    acceleration: DVec2,
     field: &Field,
     impulses: &mut WallImpulses,
 ) -> bool {
@@ -99,37 +149,33 @@ pub fn contact_ball_wall(
     let (lo_x, hi_x) = (radius, field.width - radius);
     let (lo_y, hi_y) = (radius, field.height - radius);
     if position.x < lo_x {
-        position.x = lo_x + e * (lo_x - position.x);
-        if velocity.x < 0.0 {
-            impulses.add(Wall::Left, -mass * (1.0 + e) * velocity.x);
-            velocity.x = -e * velocity.x;
-        }
+        let (s, u, j) = bounce(position.x - lo_x, velocity.x, acceleration.x, e, mass);
+        position.x = lo_x + s;
+        velocity.x = u;
+        impulses.add(Wall::Left, j);
         touched = true;
     } else if position.x > hi_x {
-        position.x = hi_x - e * (position.x - hi_x);
-        if velocity.x > 0.0 {
-            impulses.add(Wall::Right, mass * (1.0 + e) * velocity.x);
-            velocity.x = -e * velocity.x;
-        }
+        let (s, u, j) = bounce(hi_x - position.x, -velocity.x, -acceleration.x, e, mass);
+        position.x = hi_x - s;
+        velocity.x = -u;
+        impulses.add(Wall::Right, j);
         touched = true;
     }
     if position.y < lo_y {
-        position.y = lo_y + e * (lo_y - position.y);
-        if velocity.y < 0.0 {
-            impulses.add(Wall::Bottom, -mass * (1.0 + e) * velocity.y);
-            velocity.y = -e * velocity.y;
-        }
+        let (s, u, j) = bounce(position.y - lo_y, velocity.y, acceleration.y, e, mass);
+        position.y = lo_y + s;
+        velocity.y = u;
+        impulses.add(Wall::Bottom, j);
         touched = true;
     } else if position.y > hi_y {
-        position.y = hi_y - e * (position.y - hi_y);
-        if velocity.y > 0.0 {
-            impulses.add(Wall::Top, mass * (1.0 + e) * velocity.y);
-            velocity.y = -e * velocity.y;
-        }
+        let (s, u, j) = bounce(hi_y - position.y, -velocity.y, -acceleration.y, e, mass);
+        position.y = hi_y - s;
+        velocity.y = -u;
+        impulses.add(Wall::Top, j);
         touched = true;
     }
     if touched {
-        // A mirrored overshoot larger than the free width (a very fast ball) is clamped.
+        // A replayed path longer than the free width (a very fast ball) is clamped.
         position.x = position.x.clamp(lo_x.min(hi_x), hi_x.max(lo_x));
         position.y = position.y.clamp(lo_y.min(hi_y), hi_y.max(lo_y));
     }

@@ -64,6 +64,11 @@ impl Forces {
             .collect()
     }
 
+    /// Whether the acceleration depends on velocity (drag is on).
+    pub fn depends_on_velocity(&self) -> bool {
+        self.passes.iter().any(|p| matches!(p, ForcePass::Drag(_)))
+    }
+
     /// True when no force acts at all (vacuum without a pull): the integrators can skip evaluation.
     pub fn is_empty(&self) -> bool {
         self.passes.is_empty()

@@ -1,0 +1,103 @@
+//! Analytic solutions: free fall, a fall with quadratic drag, and a circular two-body orbit.
+
+mod common;
+
+use ballfield::physics::{Attraction, Drag, Effects, Gravity, Integrator, quadratic_terminal_speed};
+use common::*;
+use glam::DVec2;
+
+const G: f64 = 9.81;
+
+fn gravity() -> Effects {
+    Effects { gravity: Some(Gravity { g: DVec2::new(0.0, -G) }), ..Effects::default() }
+}
+
+/// Free fall from rest: y(t) = y0 − ½·g·t². Second- and higher-order integrators are exact for a
+/// constant force (to rounding); the first-order ones err by exactly their known O(dt) term.
+#[test]
+fn free_fall_matches_half_g_t_squared() {
+    let (y0, dt, steps) = (5.0e5, 1e-3, 2000u64);
+    let t = steps as f64 * dt;
+    let exact = y0 - 0.5 * G * t * t;
+    for integrator in Integrator::ALL {
+        let mut e = engine(open_field(), gravity(), integrator, dt, &[ball(0, 5.0e5, y0, 0.0, 0.0, 1.0, 1.0)]);
+        e.run(steps);
+        let y = e.bodies().position[0].y;
+        let vy = e.bodies().velocity[0].y;
+        // Euler variants: semi-implicit lands ½·g·dt·t low, explicit ½·g·dt·t high.
+        let bias = match integrator {
+            Integrator::SemiImplicitEuler => -0.5 * G * dt * t,
+            Integrator::ExplicitEuler => 0.5 * G * dt * t,
+            _ => 0.0,
+        };
+        assert!((y - (exact + bias)).abs() < 1e-8, "{integrator}: y = {y}, expected {}", exact + bias);
+        assert!((vy - -G * t).abs() < 1e-10, "{integrator}: vy = {vy}");
+    }
+}
+
+/// A fall from rest with quadratic drag: v(t) = v_t·tanh(g·t/v_t), fallen distance
+/// (v_t²/g)·ln cosh(g·t/v_t), with v_t = sqrt(2mg/(ρ·C_d·A)).
+#[test]
+fn drag_fall_follows_tanh_to_terminal_speed() {
+    let (m, d, rho, cd) = (1.0, 1.0, 1.225, 0.47);
+    let vt = quadratic_terminal_speed(m, d, G, rho, cd);
+    let effects = Effects { drag: Some(Drag::Quadratic { rho, cd }), ..gravity() };
+    // Start low in a tall field so that rounding of y is small against the distance fallen.
+    let y0 = 2000.0;
+    for (integrator, dt, tolerance) in [
+        (Integrator::Rk4, 1e-3, 1e-9),
+        (Integrator::Yoshida4, 1e-3, 1e-5),
+        (Integrator::Leapfrog, 1e-3, 1e-3),
+        // First order: the relative error in the distance fallen is about dt/t, 1e-3 at the first
+        // sample (t = 0.1 s).
+        (Integrator::SemiImplicitEuler, 1e-4, 1.5e-3),
+    ] {
+        let mut e = engine(open_field(), effects, integrator, dt, &[ball(0, 5.0e5, y0, 0.0, 0.0, m, d)]);
+        let mut worst = 0.0f64;
+        for _ in 0..40 {
+            e.run((0.1 / dt).round() as u64);
+            let t = e.time();
+            let v_exact = vt * (G * t / vt).tanh();
+            let fall_exact = vt * vt / G * (G * t / vt).cosh().ln();
+            let v = -e.bodies().velocity[0].y;
+            let fall = y0 - e.bodies().position[0].y;
+            worst = worst.max(relative(v, v_exact)).max(relative(fall, fall_exact));
+        }
+        assert!(worst < tolerance, "{integrator} dt {dt}: worst relative error {worst:e}");
+        let v = -e.bodies().velocity[0].y;
+        assert!(relative(v, vt) < 1e-3, "after 4 s the ball falls at its terminal speed {vt}, not {v}");
+    }
+}
+
+/// Two balls on a circular orbit about their common centre of mass return to their start after
+/// one Kepler period T = 2π·sqrt(a³/(G·(m₁+m₂))).
+#[test]
+fn circular_orbit_returns_after_one_kepler_period() {
+    let (g, m1, m2, a) = (1.0, 100.0, 1.0, 10.0);
+    let effects = Effects { attraction: Some(Attraction { g_constant: g }), ..Effects::default() };
+    let mu = g * (m1 + m2);
+    let v_rel = (mu / a).sqrt();
+    let c = DVec2::splat(5.0e5);
+    // Positions and velocities about the centre of mass, which stays at rest.
+    let r1 = -a * m2 / (m1 + m2);
+    let r2 = a * m1 / (m1 + m2);
+    let v1 = -v_rel * m2 / (m1 + m2);
+    let v2 = v_rel * m1 / (m1 + m2);
+    let balls = [ball(0, c.x + r1, c.y, 0.0, v1, m1, 2.0), ball(1, c.x + r2, c.y, 0.0, v2, m2, 1.0)];
+    let period = std::f64::consts::TAU * (a * a * a / mu).sqrt();
+    for (integrator, steps_per_orbit, tolerance) in
+        [(Integrator::Rk4, 2000u64, 1e-8), (Integrator::Yoshida4, 2000, 1e-7), (Integrator::Leapfrog, 20_000, 1e-4)]
+    {
+        let dt = period / steps_per_orbit as f64;
+        let mut e = engine(open_field(), effects, integrator, dt, &balls);
+        let start = e.diagnostics();
+        e.run(steps_per_orbit);
+        let b = e.bodies();
+        for (k, orig) in balls.iter().enumerate() {
+            let err = b.position[k].distance(orig.position) / a;
+            assert!(err < tolerance, "{integrator}: ball {k} is {err:e}·a from its start after one period");
+        }
+        let end = e.diagnostics();
+        assert!(relative(end.total, start.total) < tolerance, "{integrator}: energy drift");
+    }
+}
