@@ -3,9 +3,16 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use std::time::Duration;
+
+use cpu_time::ProcessTime;
+
 use crate::lockstep::Lockstep;
 use crate::physics::Integrator;
+use crate::physics::{Bodies, measure};
 use crate::report::RunReport;
+use crate::report::ThreadedFigures;
+use crate::runtime::{Runtime, RuntimeConfig, RuntimeError};
 use crate::scene::Scene;
 use crate::state_file::{StateFileError, read_state, write_state};
 
@@ -21,12 +28,15 @@ pub enum RunLength {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Engine {
     Lockstep,
+    /// One thread per ball; the run length is wall-clock time.
+    Threaded,
 }
 
 impl Engine {
     pub fn name(self) -> &'static str {
         match self {
             Engine::Lockstep => "lockstep",
+            Engine::Threaded => "threaded",
         }
     }
 }
@@ -49,6 +59,8 @@ pub enum HeadlessError {
     StateIn(StateFileError),
     #[error("--state-out: {0}")]
     StateOut(StateFileError),
+    #[error("cannot start the threaded runtime: {0}")]
+    Runtime(RuntimeError),
     #[error("--state-in {file}: {count} balls, more than simulation.max-balls = {limit} of the scene")]
     TooManyBalls { file: PathBuf, count: usize, limit: usize },
 }
@@ -77,6 +89,9 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
         }
         scene.balls = balls;
     }
+    if options.engine == Engine::Threaded {
+        return run_threaded(&scene, options);
+    }
     let steps = steps_for(options.length, scene.dt);
     let mut engine = Lockstep::new(&scene);
     let start = engine.diagnostics();
@@ -103,5 +118,63 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
         end,
         phases: Some(*engine.counters()),
         state_hash: Some(format!("{:016x}", engine.state_hash())),
+        runtime: None,
+    })
+}
+
+/// The threaded run: the scene on one thread per ball for a wall-clock duration (`--steps N`
+/// means N ball cycles' worth of time).
+fn run_threaded(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, HeadlessError> {
+    let config = RuntimeConfig {
+        ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
+        max_balls: scene.max_balls,
+        ..RuntimeConfig::default()
+    };
+    let seconds = match options.length {
+        RunLength::Duration(d) => d,
+        RunLength::Steps(n) => n as f64 * scene.ball_cycle,
+    };
+    let start = measure(&Bodies::from_balls(&scene.balls), &scene.field, &scene.effects, Default::default());
+    let runtime = Runtime::start(scene, config).map_err(HeadlessError::Runtime)?;
+    let cpu = ProcessTime::now();
+    let clock = Instant::now();
+    std::thread::sleep(Duration::from_secs_f64(seconds));
+    // Pause so that the snapshot is of balls at rest in time (nothing moves between reads).
+    runtime.pause();
+    std::thread::sleep(scene.ball_cycle_duration() * 3);
+    let wall_seconds = clock.elapsed().as_secs_f64();
+    let cpu_seconds = cpu.elapsed().as_secs_f64();
+    let stats = runtime.stats();
+    let bodies = runtime.bodies();
+    let walls = runtime.wall_impulses();
+    let params = runtime.params();
+    let shutdown = runtime.shutdown();
+    let end = measure(&bodies, &params.field, &params.effects, walls);
+    if let Some(path) = &options.state_out {
+        write_state(path, &bodies.to_balls()).map_err(HeadlessError::StateOut)?;
+    }
+    Ok(RunReport {
+        scene: scene.name.clone(),
+        scene_file: options.scene_file.clone(),
+        engine: Engine::Threaded.name().into(),
+        integrator: params.integrator.name().into(),
+        dt: scene.ball_cycle,
+        steps: 0,
+        simulated_seconds: wall_seconds * params.time_scale,
+        wall_seconds,
+        steps_per_second: stats.ball_rate_median,
+        balls: bodies.len(),
+        active_effects: scene.effects.active_names().iter().map(|s| s.to_string()).collect(),
+        start,
+        end,
+        phases: None,
+        state_hash: None,
+        runtime: Some(ThreadedFigures {
+            stats,
+            cpu_seconds,
+            cpu_cores_used: cpu_seconds / wall_seconds.max(1e-9),
+            shutdown_seconds: shutdown.seconds,
+            threads_joined: shutdown.joined,
+        }),
     })
 }

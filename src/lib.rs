@@ -11,6 +11,7 @@ pub mod headless;
 pub mod lockstep;
 pub mod physics;
 pub mod report;
+pub mod runtime;
 pub mod scene;
 pub mod scenes;
 pub mod state_file;

@@ -32,6 +32,8 @@ enum Command {
 enum EngineArg {
     /// The deterministic fixed-step engine.
     Lockstep,
+    /// One thread per ball; --duration is wall-clock seconds.
+    Threaded,
 }
 
 #[derive(Args, Debug)]
@@ -141,6 +143,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 integrator: args.integrator,
                 engine: match args.engine {
                     EngineArg::Lockstep => Engine::Lockstep,
+                    EngineArg::Threaded => Engine::Threaded,
                 },
                 state_in: args.state_in,
                 state_out: args.state_out,

@@ -4,6 +4,7 @@ use serde::Serialize;
 
 use crate::lockstep::StepCounters;
 use crate::physics::Diagnostics;
+use crate::runtime::RuntimeStats;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct RunReport {
@@ -28,6 +29,20 @@ pub struct RunReport {
     pub phases: Option<StepCounters>,
     /// FNV-1a of the final state's bits (lockstep), as 16 hex digits.
     pub state_hash: Option<String>,
+    /// The threaded runtime's own figures.
+    pub runtime: Option<ThreadedFigures>,
+}
+
+/// What the threaded runtime measured about itself during a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct ThreadedFigures {
+    #[serde(flatten)]
+    pub stats: RuntimeStats,
+    /// CPU time the whole process used during the run, s, and as cores busy on average.
+    pub cpu_seconds: f64,
+    pub cpu_cores_used: f64,
+    pub shutdown_seconds: f64,
+    pub threads_joined: usize,
 }
 
 impl RunReport {
@@ -81,6 +96,24 @@ impl RunReport {
                 pct(p.broad_phase),
                 pct(p.contacts),
                 pct(p.walls)
+            );
+        }
+        if let Some(t) = &self.runtime {
+            let st = &t.stats;
+            let _ = writeln!(
+                s,
+                "threads      {} balls: update rate min {:.0}/s, median {:.0}/s; monitor {:.0} passes/s",
+                st.balls, st.ball_rate_min, st.ball_rate_median, st.monitor_passes_per_second
+            );
+            let _ = writeln!(
+                s,
+                "messages     {} impulses sent, {} applied, {} deferred, {} dropped; {} threads panicked",
+                st.impulses_sent, st.impulses_applied, st.contacts_deferred, st.messages_dropped, st.threads_panicked
+            );
+            let _ = writeln!(
+                s,
+                "cost         {:.2} CPU s in {:.2} s ({:.2} cores); shutdown joined {} threads in {:.3} s",
+                t.cpu_seconds, self.wall_seconds, t.cpu_cores_used, t.threads_joined, t.shutdown_seconds
             );
         }
         if let Some(h) = &self.state_hash {

@@ -479,6 +479,11 @@ impl Scene {
         build(file, &c)
     }
 
+    /// The threaded runtime's ball cycle as a duration.
+    pub fn ball_cycle_duration(&self) -> std::time::Duration {
+        std::time::Duration::from_secs_f64(self.ball_cycle)
+    }
+
     /// The id the next added ball should get.
     pub fn next_id(&self) -> BallId {
         BallId(self.balls.iter().map(|b| b.id.0 + 1).max().unwrap_or(0))

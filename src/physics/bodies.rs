@@ -31,6 +31,18 @@ impl Bodies {
         b
     }
 
+    /// Empties the set, keeping its memory.
+    pub fn clear(&mut self) {
+        self.id.clear();
+        self.kind.clear();
+        self.position.clear();
+        self.velocity.clear();
+        self.mass.clear();
+        self.inverse_mass.clear();
+        self.diameter.clear();
+        self.radius.clear();
+    }
+
     pub fn len(&self) -> usize {
         self.id.len()
     }

@@ -1,0 +1,217 @@
+//! The life of one ball on its own thread: measure dt, sub-step the effects, bounce off the
+//! walls, apply the messages in its inbox, publish to the table, wait for the next cycle.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use crossbeam_channel::{Receiver, RecvTimeoutError};
+use glam::DVec2;
+
+use super::message::Message;
+use super::shared::{Params, Shared};
+use super::table::BallRecord;
+use crate::physics::{
+    Ball, IntegratorScratch, WallImpulses, attraction_force, contact_ball_wall, drag_force, integrate,
+};
+
+/// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
+/// panic. The runtime reports it when it joins the thread.
+struct PanicGuard<'a> {
+    shared: &'a Shared,
+    slot: usize,
+}
+
+impl Drop for PanicGuard<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            // This thread is still the slot's only writer, so it may clear it.
+            self.shared.table.clear(self.slot);
+            // Relaxed: a statistic, read only for reports.
+            self.shared.panicked.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// What the thread keeps between cycles.
+struct BallState {
+    ball: Ball,
+    slot: usize,
+    pull: DVec2,
+    applied: u64,
+    updates: u64,
+    walls: WallImpulses,
+}
+
+impl BallState {
+    fn publish(&self, shared: &Shared) {
+        shared.table.write(
+            self.slot,
+            &BallRecord {
+                slot: self.slot,
+                ball: self.ball,
+                applied: self.applied,
+                updates: self.updates,
+                wall_impulses: self.walls,
+            },
+        );
+    }
+}
+
+enum Handled {
+    Continue,
+    Stop,
+}
+
+/// Runs one ball until it is told to stop (or every sender is gone). `ball` is already in the
+/// table at `slot` (written by the runtime before this thread started).
+pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Receiver<Message>) {
+    let _guard = PanicGuard { shared: &shared, slot };
+    let cycle = shared.config.ball_cycle;
+    let max_step = shared.config.max_step;
+    let mut state = BallState { ball, slot, pull: DVec2::ZERO, applied: 0, updates: 0, walls: WallImpulses::default() };
+    let mut params: Params = shared.params.read().clone();
+    // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
+    // generation means the read lock below returns the parameters written before it.
+    let mut generation = shared.params_generation.load(Ordering::Acquire);
+    let mut scratch = IntegratorScratch::default();
+    let mut others: Vec<BallRecord> = Vec::new();
+    let mut last = Instant::now();
+    let mut deadline = last + cycle;
+    loop {
+        // Wait for the next cycle; messages that arrive meanwhile are applied at once.
+        loop {
+            match inbox.recv_deadline(deadline) {
+                Ok(message) => {
+                    if let Handled::Stop = handle(message, &mut state, &mut params) {
+                        state.publish(&shared);
+                        return;
+                    }
+                    state.publish(&shared);
+                }
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+        let now = Instant::now();
+        let elapsed = now - last;
+        last = now;
+        deadline += cycle;
+        if deadline < now {
+            // Fell behind (a loaded machine): don't try to catch up with a burst of cycles.
+            deadline = now + cycle;
+        }
+        let g = shared.params_generation.load(Ordering::Acquire);
+        if g != generation {
+            generation = g;
+            let integrator = params.integrator;
+            params = shared.params.read().clone();
+            // A per-ball integrator change (SetIntegrator) is overridden by a global one only
+            // when the global one changed.
+            if params.integrator == integrator {
+                params.integrator = integrator;
+            }
+        }
+        // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
+        if shared.paused.load(Ordering::Relaxed) {
+            continue;
+        }
+        let dt = elapsed.as_secs_f64() * params.time_scale;
+        advance(&mut state, dt, max_step, &params, &shared, &mut scratch, &mut others);
+        state.updates += 1;
+        state.publish(&shared);
+    }
+}
+
+fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handled {
+    match message {
+        Message::Contact { dv, dx } => {
+            state.ball.velocity += dv;
+            state.ball.position += dx;
+            state.applied += 1;
+            // A shift may push the ball past a wall: the wall holds it, as it would in a step.
+            let r = state.ball.radius();
+            contact_ball_wall(
+                &mut state.ball.position,
+                &mut state.ball.velocity,
+                r,
+                state.ball.mass,
+                DVec2::ZERO,
+                &params.field,
+                &mut state.walls,
+            );
+        }
+        Message::Pull(force) => state.pull = force,
+        Message::SetMass(mass) => state.ball.mass = mass,
+        Message::SetIntegrator(integrator) => params.integrator = integrator,
+        Message::Throw(velocity) => state.ball.velocity = velocity,
+        Message::Stop => return Handled::Stop,
+        Message::Panic => panic!("ball {} was asked to panic (test hook)", state.ball.id),
+    }
+    Handled::Continue
+}
+
+/// Advances the ball by `dt` seconds in sub-steps of at most `max_step`, so a stall (a dragged
+/// window, a loaded machine) never becomes one giant step.
+fn advance(
+    state: &mut BallState,
+    dt: f64,
+    max_step: f64,
+    params: &Params,
+    shared: &Shared,
+    scratch: &mut IntegratorScratch,
+    others: &mut Vec<BallRecord>,
+) {
+    if dt <= 0.0 {
+        return;
+    }
+    let effects = &params.effects;
+    let ball = &mut state.ball;
+    let (mass, diameter) = (ball.mass, ball.diameter);
+    let radius = 0.5 * diameter;
+    let inv_mass = 1.0 / mass;
+    let gravity = effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
+    let uniform = gravity + state.pull * inv_mass;
+    // The other balls, frozen at their last published state for this cycle (attraction only).
+    others.clear();
+    if effects.attraction.is_some() {
+        let high = shared.high_water.load(Ordering::Acquire);
+        shared.table.read_all(high, others);
+        others.retain(|r| r.slot != state.slot);
+    }
+    let drag = effects.drag;
+    let attraction = effects.attraction;
+    let velocity_dependent = drag.is_some();
+    let steps = (dt / max_step).ceil().max(1.0);
+    let h = dt / steps;
+    for _ in 0..steps as u64 {
+        let mut x = [ball.position];
+        let mut v = [ball.velocity];
+        integrate(params.integrator, h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
+            let mut acc = uniform;
+            if let Some(d) = &drag {
+                acc += drag_force(v[0], diameter, d) * inv_mass;
+            }
+            if let Some(att) = &attraction {
+                let mut f = DVec2::ZERO;
+                for o in others.iter() {
+                    let ob = &o.ball;
+                    f += attraction_force(x[0], mass, radius, ob.position, ob.mass, ob.radius(), att);
+                }
+                acc += f * inv_mass;
+            }
+            a[0] = acc;
+        });
+        ball.position = x[0];
+        ball.velocity = v[0];
+        contact_ball_wall(
+            &mut ball.position,
+            &mut ball.velocity,
+            radius,
+            mass,
+            uniform,
+            &params.field,
+            &mut state.walls,
+        );
+    }
+}

@@ -1,0 +1,535 @@
+//! The threaded runtime, the game's default engine (DESIGN.md, "The threaded runtime"): every
+//! ball on its own `std::thread`, a lock-free [`BallTable`] they publish to, and a
+//! collision-monitor thread that sends impulses as messages. Every thread of the program that
+//! simulates lives here, and every one is joined.
+//!
+//! Channels: each ball's inbox is a crossbeam channel. Its receiver is owned by the ball's
+//! thread; its senders by the runtime's registry and the monitor's inbox list, both of which drop
+//! theirs when the ball is removed or the runtime shuts down — the `Stop` message, not the
+//! channel closing, is what ends the thread, and closing is the fallback.
+
+mod ball_thread;
+mod message;
+mod monitor;
+mod shared;
+mod table;
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::Sender;
+use glam::DVec2;
+use parking_lot::{Mutex, RwLock};
+use serde::Serialize;
+
+pub use message::Message;
+pub use shared::{Params, RuntimeConfig};
+pub use table::{BallRecord, BallTable};
+
+use crate::physics::{Ball, BallId, BallKind, Bodies, Effects, Field, Integrator, WallImpulses};
+use crate::scene::Scene;
+use monitor::Inboxes;
+use shared::Shared;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RuntimeError {
+    #[error("the field is full: {limit} balls is the limit (simulation.max-balls)")]
+    TooManyBalls { limit: usize },
+    #[error("no ball with id {0}")]
+    NoSuchBall(BallId),
+    #[error("invalid ball: {0}")]
+    InvalidBall(String),
+    #[error("no free spot on the field for a ball of diameter {0} m")]
+    NoFreeSpot(f64),
+    #[error("could not start a thread: {0}")]
+    Spawn(String),
+}
+
+struct Handle {
+    id: BallId,
+    kind: BallKind,
+    slot: usize,
+    inbox: Sender<Message>,
+    thread: JoinHandle<()>,
+    started: Instant,
+}
+
+/// Totals of balls that have left, so that run figures stay whole after removals.
+#[derive(Clone, Copy, Debug, Default)]
+struct Retired {
+    applied: u64,
+    walls: WallImpulses,
+}
+
+struct Registry {
+    /// Live balls in the order they were added.
+    balls: Vec<Handle>,
+    free_slots: BTreeSet<usize>,
+    next_id: u32,
+    retired: Retired,
+    /// Messages of ball threads that panicked, as reported when they were joined.
+    panics: Vec<String>,
+    rng: u64,
+}
+
+/// Figures the runtime measured about itself.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RuntimeStats {
+    pub balls: usize,
+    /// Seconds since the runtime started.
+    pub seconds: f64,
+    /// Update cycles per second achieved by the slowest ball and by the median ball.
+    pub ball_rate_min: f64,
+    pub ball_rate_median: f64,
+    pub monitor_passes: u64,
+    pub monitor_passes_per_second: f64,
+    /// Contact messages (impulse + shift) the monitor sent, and those the balls applied.
+    pub impulses_sent: u64,
+    pub impulses_applied: u64,
+    /// Pairs the monitor left for a later pass because a message to one of them was in flight.
+    pub contacts_deferred: u64,
+    /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
+    pub messages_dropped: u64,
+    pub threads_panicked: u64,
+    pub panics: Vec<String>,
+}
+
+/// How a shutdown went.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShutdownReport {
+    pub joined: usize,
+    pub panics: Vec<String>,
+    pub seconds: f64,
+}
+
+/// The running field. All methods take `&self` and may be called from any thread.
+pub struct Runtime {
+    shared: Arc<Shared>,
+    registry: Mutex<Registry>,
+    inboxes: Inboxes,
+    monitor: Mutex<Option<JoinHandle<()>>>,
+    started: Instant,
+    seed: u64,
+}
+
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        s.to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic with a non-text payload".into()
+    }
+}
+
+impl Runtime {
+    /// Starts a thread for every ball of `scene` and the collision monitor.
+    pub fn start(scene: &Scene, config: RuntimeConfig) -> Result<Runtime, RuntimeError> {
+        let config = RuntimeConfig { max_balls: config.max_balls.max(scene.balls.len()), ..config };
+        let params =
+            Params { field: scene.field, effects: scene.effects, integrator: scene.integrator, time_scale: 1.0 };
+        let runtime = Runtime {
+            shared: Arc::new(Shared::new(config, params)),
+            registry: Mutex::new(Registry {
+                balls: Vec::new(),
+                free_slots: BTreeSet::new(),
+                next_id: 0,
+                retired: Retired::default(),
+                panics: Vec::new(),
+                rng: scene.seed ^ 0x5DEE_CE66_D1CE_4E5B,
+            }),
+            inboxes: Arc::new(RwLock::new(vec![None; config.max_balls])),
+            monitor: Mutex::new(None),
+            started: Instant::now(),
+            seed: scene.seed,
+        };
+        for ball in &scene.balls {
+            runtime.insert(*ball, Some(ball.id))?;
+        }
+        let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
+        let monitor = std::thread::Builder::new()
+            .name("collision-monitor".into())
+            .spawn(move || monitor::run_monitor(shared, inboxes))
+            .map_err(|e| RuntimeError::Spawn(e.to_string()))?;
+        *runtime.monitor.lock() = Some(monitor);
+        Ok(runtime)
+    }
+
+    pub fn config(&self) -> RuntimeConfig {
+        self.shared.config
+    }
+
+    /// The current parameters (field, effects, integrator, time scale).
+    pub fn params(&self) -> Params {
+        self.shared.params.read().clone()
+    }
+
+    /// Adds a ball (its `id` is replaced by a fresh one) and starts its thread.
+    pub fn add_ball(&self, ball: Ball) -> Result<BallId, RuntimeError> {
+        self.insert(ball, None)
+    }
+
+    /// Adds a ball of the given size at a free spot, at rest.
+    pub fn add_ball_at_free_spot(&self, mass: f64, diameter: f64) -> Result<BallId, RuntimeError> {
+        let field = self.params().field;
+        let r = 0.5 * diameter;
+        if !(diameter > 0.0 && diameter <= field.width.min(field.height)) {
+            return Err(RuntimeError::InvalidBall(format!("diameter {diameter}")));
+        }
+        let balls = self.snapshot();
+        for _ in 0..1000 {
+            let (u, v) = {
+                let mut reg = self.registry.lock();
+                (next_uniform(&mut reg.rng), next_uniform(&mut reg.rng))
+            };
+            let p = DVec2::new(r + u * (field.width - diameter), r + v * (field.height - diameter));
+            if balls.iter().all(|b| b.ball.position.distance(p) >= b.ball.radius() + r) {
+                return self.add_ball(Ball {
+                    id: BallId(0),
+                    kind: BallKind::Ball,
+                    position: p,
+                    velocity: DVec2::ZERO,
+                    mass,
+                    diameter,
+                });
+            }
+        }
+        Err(RuntimeError::NoFreeSpot(diameter))
+    }
+
+    fn insert(&self, mut ball: Ball, keep_id: Option<BallId>) -> Result<BallId, RuntimeError> {
+        let field = self.params().field;
+        if !(ball.is_finite()
+            && ball.mass > 0.0
+            && ball.diameter > 0.0
+            && ball.diameter <= field.width.min(field.height))
+        {
+            return Err(RuntimeError::InvalidBall(format!("{ball:?}")));
+        }
+        let r = ball.radius();
+        ball.position.x = ball.position.x.clamp(r, field.width - r);
+        ball.position.y = ball.position.y.clamp(r, field.height - r);
+        let mut reg = self.registry.lock();
+        self.reap(&mut reg);
+        let limit = self.shared.config.max_balls;
+        if reg.balls.len() >= limit {
+            return Err(RuntimeError::TooManyBalls { limit });
+        }
+        ball.id = keep_id.unwrap_or(BallId(reg.next_id));
+        reg.next_id = reg.next_id.max(ball.id.0 + 1);
+        let high = self.shared.high_water.load(Ordering::Relaxed);
+        let slot = reg.free_slots.pop_first().unwrap_or(high);
+        // The slot is free and no thread owns it yet: the runtime writes the first record. The
+        // spawn below hands the slot to the new thread (spawn happens-before the thread's start).
+        self.shared
+            .table
+            .write(slot, &BallRecord { slot, ball, applied: 0, updates: 0, wall_impulses: WallImpulses::default() });
+        if slot >= high {
+            // Release: readers that Acquire the new high-water mark see the record just written.
+            self.shared.high_water.store(slot + 1, Ordering::Release);
+        }
+        let (tx, rx) = crossbeam_channel::unbounded();
+        self.inboxes.write()[slot] = Some(tx.clone());
+        let shared = self.shared.clone();
+        let spawned = std::thread::Builder::new()
+            .name(format!("ball-{}", ball.id))
+            .spawn(move || ball_thread::run_ball(shared, slot, ball, rx));
+        match spawned {
+            Ok(thread) => {
+                reg.balls.push(Handle {
+                    id: ball.id,
+                    kind: ball.kind,
+                    slot,
+                    inbox: tx,
+                    thread,
+                    started: Instant::now(),
+                });
+                Ok(ball.id)
+            }
+            Err(e) => {
+                self.inboxes.write()[slot] = None;
+                self.shared.table.clear(slot);
+                reg.free_slots.insert(slot);
+                Err(RuntimeError::Spawn(e.to_string()))
+            }
+        }
+    }
+
+    /// Joins the threads of balls that died (panicked), reports them, and frees their slots.
+    fn reap(&self, reg: &mut Registry) {
+        let mut k = 0;
+        while k < reg.balls.len() {
+            if reg.balls[k].thread.is_finished() {
+                let h = reg.balls.remove(k);
+                self.finish(reg, h, false);
+            } else {
+                k += 1;
+            }
+        }
+    }
+
+    /// Stops (unless already dead), joins and forgets one ball.
+    fn finish(&self, reg: &mut Registry, h: Handle, stop: bool) {
+        // No new contact message can be sent once the inbox is gone from the monitor's list.
+        self.inboxes.write()[h.slot] = None;
+        if stop {
+            let _ = h.inbox.send(Message::Stop);
+        }
+        drop(h.inbox);
+        let joined = h.thread.join();
+        if let Some(last) = self.shared.table.read(h.slot) {
+            reg.retired.applied += last.applied;
+            let w = &mut reg.retired.walls;
+            w.left += last.wall_impulses.left;
+            w.right += last.wall_impulses.right;
+            w.bottom += last.wall_impulses.bottom;
+            w.top += last.wall_impulses.top;
+        }
+        if let Err(payload) = joined {
+            let message = format!("ball {}: {}", h.id, panic_message(payload));
+            log::error!("a ball thread panicked: {message}");
+            reg.panics.push(message);
+        }
+        // The thread is joined: the runtime is the slot's only writer again.
+        self.shared.table.clear(h.slot);
+        reg.free_slots.insert(h.slot);
+    }
+
+    /// Removes a ball by id and joins its thread.
+    pub fn remove_ball(&self, id: BallId) -> Result<(), RuntimeError> {
+        let mut reg = self.registry.lock();
+        let k = reg.balls.iter().position(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
+        let h = reg.balls.remove(k);
+        self.finish(&mut reg, h, true);
+        Ok(())
+    }
+
+    /// Removes the most recently added ball that is not the key ball.
+    pub fn remove_last(&self) -> Option<BallId> {
+        let mut reg = self.registry.lock();
+        let k = reg.balls.iter().rposition(|h| h.kind != BallKind::Key)?;
+        let h = reg.balls.remove(k);
+        let id = h.id;
+        self.finish(&mut reg, h, true);
+        Some(id)
+    }
+
+    fn send_to_key(&self, message: Message) {
+        let reg = self.registry.lock();
+        if let Some(h) = reg.balls.iter().find(|h| h.kind == BallKind::Key) {
+            let _ = h.inbox.send(message);
+        }
+    }
+
+    /// Sets the pull (N) on the key ball; zero releases it.
+    pub fn set_pull(&self, force: DVec2) {
+        self.send_to_key(Message::Pull(force));
+    }
+
+    pub fn set_key_mass(&self, mass: f64) {
+        if mass.is_finite() && mass > 0.0 {
+            self.send_to_key(Message::SetMass(mass));
+        }
+    }
+
+    /// Sets a ball's velocity (the mouse's throw). The only absolute change a ball accepts.
+    pub fn throw(&self, id: BallId, velocity: DVec2) -> Result<(), RuntimeError> {
+        let reg = self.registry.lock();
+        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
+        let _ = h.inbox.send(Message::Throw(velocity));
+        Ok(())
+    }
+
+    pub fn set_effects(&self, effects: Effects) {
+        self.shared.update_params(|p| p.effects = effects);
+    }
+
+    pub fn set_integrator(&self, integrator: Integrator) {
+        self.shared.update_params(|p| p.integrator = integrator);
+    }
+
+    /// Restitution of the walls and of ball–ball collisions (if on), clamped to [0, 1].
+    pub fn set_restitution(&self, walls: f64, collisions: f64) {
+        self.shared.update_params(|p| {
+            p.field.restitution = walls.clamp(0.0, 1.0);
+            if let Some(c) = &mut p.effects.collisions {
+                c.restitution = collisions.clamp(0.0, 1.0);
+            }
+        });
+    }
+
+    /// Simulated seconds per wall-clock second (slow motion below 1).
+    pub fn set_time_scale(&self, scale: f64) {
+        if scale.is_finite() && scale >= 0.0 {
+            self.shared.update_params(|p| p.time_scale = scale);
+        }
+    }
+
+    pub fn set_field(&self, field: Field) {
+        self.shared.update_params(|p| p.field = field);
+    }
+
+    pub fn pause(&self) {
+        // Relaxed: see the ball loop; the flag carries no data.
+        self.shared.paused.store(true, Ordering::Relaxed);
+    }
+
+    pub fn resume(&self) {
+        self.shared.paused.store(false, Ordering::Relaxed);
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Relaxed)
+    }
+
+    /// Number of live balls.
+    pub fn ball_count(&self) -> usize {
+        self.registry.lock().balls.len()
+    }
+
+    /// Ids of the live balls, in the order they were added.
+    pub fn ball_ids(&self) -> Vec<BallId> {
+        self.registry.lock().balls.iter().map(|h| h.id).collect()
+    }
+
+    /// Ball threads still running (not finished), for leak checks.
+    pub fn live_threads(&self) -> usize {
+        self.registry.lock().balls.iter().filter(|h| !h.thread.is_finished()).count()
+    }
+
+    /// The table read now: a consistent record per ball (not one instant for all balls).
+    pub fn snapshot(&self) -> Vec<BallRecord> {
+        let mut out = Vec::new();
+        self.shared.table.read_all(self.shared.high_water.load(Ordering::Acquire), &mut out);
+        out
+    }
+
+    /// Reads the table into `out` (cleared first), reusing its memory: the renderer's path.
+    pub fn snapshot_into(&self, out: &mut Vec<BallRecord>) {
+        self.shared.table.read_all(self.shared.high_water.load(Ordering::Acquire), out);
+    }
+
+    /// The snapshot as a set of bodies, sorted by id.
+    pub fn bodies(&self) -> Bodies {
+        let mut balls: Vec<Ball> = self.snapshot().into_iter().map(|r| r.ball).collect();
+        balls.sort_by_key(|b| b.id);
+        Bodies::from_balls(&balls)
+    }
+
+    /// Impulse each wall took so far, from live and removed balls.
+    pub fn wall_impulses(&self) -> WallImpulses {
+        let retired = self.registry.lock().retired.walls;
+        self.snapshot().iter().fold(retired, |mut w, r| {
+            w.left += r.wall_impulses.left;
+            w.right += r.wall_impulses.right;
+            w.bottom += r.wall_impulses.bottom;
+            w.top += r.wall_impulses.top;
+            w
+        })
+    }
+
+    pub fn stats(&self) -> RuntimeStats {
+        let now = Instant::now();
+        let records = self.snapshot();
+        let mut reg = self.registry.lock();
+        self.reap(&mut reg);
+        let mut rates: Vec<f64> = reg
+            .balls
+            .iter()
+            .filter_map(|h| {
+                let r = records.iter().find(|r| r.slot == h.slot && r.ball.id == h.id)?;
+                let secs = (now - h.started).as_secs_f64();
+                (secs > 0.0).then(|| r.updates as f64 / secs)
+            })
+            .collect();
+        rates.sort_by(f64::total_cmp);
+        let seconds = (now - self.started).as_secs_f64();
+        let passes = self.shared.monitor_passes.load(Ordering::Relaxed);
+        RuntimeStats {
+            balls: reg.balls.len(),
+            seconds,
+            ball_rate_min: rates.first().copied().unwrap_or(0.0),
+            ball_rate_median: rates.get(rates.len() / 2).copied().unwrap_or(0.0),
+            monitor_passes: passes,
+            monitor_passes_per_second: passes as f64 / seconds.max(1e-9),
+            impulses_sent: self.shared.contact_messages_sent.load(Ordering::Relaxed),
+            impulses_applied: reg.retired.applied + records.iter().map(|r| r.applied).sum::<u64>(),
+            contacts_deferred: self.shared.contacts_deferred.load(Ordering::Relaxed),
+            messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
+            threads_panicked: self.shared.panicked.load(Ordering::Relaxed),
+            panics: reg.panics.clone(),
+        }
+    }
+
+    /// Test hook: makes a ball's thread panic.
+    #[doc(hidden)]
+    pub fn inject_panic(&self, id: BallId) -> Result<(), RuntimeError> {
+        let reg = self.registry.lock();
+        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
+        let _ = h.inbox.send(Message::Panic);
+        Ok(())
+    }
+
+    /// Stops every thread and joins it: the monitor first (so no message is sent to a ball that
+    /// is stopping), then all balls are told to stop at once and joined.
+    pub fn shutdown(&self) -> ShutdownReport {
+        let t0 = Instant::now();
+        self.shared.monitor_running.store(false, Ordering::Release);
+        if let Some(m) = self.monitor.lock().take()
+            && let Err(payload) = m.join()
+        {
+            log::error!("the collision monitor panicked: {}", panic_message(payload));
+        }
+        let mut reg = self.registry.lock();
+        let balls = std::mem::take(&mut reg.balls);
+        for h in &balls {
+            let _ = h.inbox.send(Message::Stop);
+        }
+        let joined = balls.len();
+        for h in balls {
+            self.finish(&mut reg, h, false);
+        }
+        ShutdownReport { joined, panics: reg.panics.clone(), seconds: t0.elapsed().as_secs_f64() }
+    }
+
+    /// The seed the runtime places new balls with.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+}
+
+impl Drop for Runtime {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// A uniform number in [0, 1) from a splitmix64 state (free-spot placement only).
+fn next_uniform(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Convenience for tests and reports: total momentum of a snapshot.
+pub fn momentum_of(records: &[BallRecord]) -> DVec2 {
+    records.iter().map(|r| r.ball.momentum()).sum()
+}
+
+/// How long to wait for something the runtime does asynchronously, polling.
+pub fn wait_until(timeout: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let end = Instant::now() + timeout;
+    while Instant::now() < end {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    done()
+}

@@ -1,0 +1,105 @@
+//! The collision-monitor thread: reads the table, finds touching pairs, and sends each ball its
+//! share of the impulse and of the separation as messages. It never writes a ball's state.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use crossbeam_channel::Sender;
+use parking_lot::RwLock;
+
+use super::message::Message;
+use super::shared::Shared;
+use super::table::BallRecord;
+use crate::physics::{BallId, Bodies, BroadPhase, ContactBody, contact_ball_ball};
+
+/// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
+/// read (read lock) by the monitor for the whole sending part of a pass, so that once a removal
+/// has cleared a slot no message can be sent to the departing ball.
+pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Sender<Message>>>>>;
+
+/// Contact messages sent to the ball in a slot, and to which ball (a slot is reused by a later
+/// ball, whose own counters start from zero).
+#[derive(Clone, Copy, Default)]
+struct Sent {
+    id: Option<BallId>,
+    count: u64,
+}
+
+pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
+    let period = shared.config.monitor_period;
+    let mut records: Vec<BallRecord> = Vec::new();
+    let mut bodies = Bodies::new();
+    let mut broad_phase = BroadPhase::new();
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    let mut sent: Vec<Sent> = vec![Sent::default(); shared.table.capacity()];
+    let mut next = Instant::now();
+    // Acquire/Release on the flag: the runtime clears it and then joins; nothing else rides on it.
+    while shared.monitor_running.load(Ordering::Acquire) {
+        let params = shared.params.read().clone();
+        // Paused means everything stands still, contacts included (Relaxed: no data rides on it).
+        let paused = shared.paused.load(Ordering::Relaxed);
+        if let (Some(collisions), false) = (params.effects.collisions, paused) {
+            let high = shared.high_water.load(Ordering::Acquire);
+            shared.table.read_all(high, &mut records);
+            bodies.clear();
+            for r in &records {
+                bodies.push(r.ball);
+            }
+            broad_phase.update(&bodies.position, &bodies.radius, params.field.width, params.field.height);
+            pairs.clear();
+            broad_phase
+                .for_each_touching_pair(&bodies.position, &bodies.radius, |i, j| pairs.push((i as u32, j as u32)));
+            let inboxes = inboxes.read();
+            // A ball has a message in flight when the monitor sent it more than the table says it
+            // applied. Its state in this snapshot is then stale with respect to that message, and
+            // a new impulse computed from it could be a second impulse for the same contact (the
+            // original design's "balls stick together" bug): such pairs wait for the next pass.
+            let pending = |r: &BallRecord, sent: &mut [Sent]| {
+                let s = &mut sent[r.slot];
+                if s.id != Some(r.ball.id) {
+                    *s = Sent { id: Some(r.ball.id), count: 0 };
+                }
+                s.count > r.applied
+            };
+            for &(i, j) in &pairs {
+                let (ra, rb) = (&records[i as usize], &records[j as usize]);
+                if pending(ra, &mut sent) || pending(rb, &mut sent) {
+                    shared.contacts_deferred.fetch_add(1, Ordering::Relaxed);
+                    continue;
+                }
+                let body = |r: &BallRecord| ContactBody {
+                    id: r.ball.id,
+                    position: r.ball.position,
+                    velocity: r.ball.velocity,
+                    inverse_mass: 1.0 / r.ball.mass,
+                    radius: r.ball.radius(),
+                };
+                let Some(c) = contact_ball_ball(&body(ra), &body(rb), collisions.restitution) else { continue };
+                // Both halves or neither: a ball being removed gets nothing, and neither does its
+                // partner, so the pair's momentum stays whole.
+                let inbox = |r: &BallRecord| inboxes.get(r.slot).and_then(|s| s.as_ref());
+                let (Some(tx_a), Some(tx_b)) = (inbox(ra), inbox(rb)) else { continue };
+                for (tx, r, dv, dx) in
+                    [(tx_a, ra, c.velocity_change_a, c.shift_a), (tx_b, rb, c.velocity_change_b, c.shift_b)]
+                {
+                    // Fails only if the ball's thread is gone (it panicked): counted as dropped.
+                    if tx.send(Message::Contact { dv, dx }).is_ok() {
+                        sent[r.slot].count += 1;
+                        shared.contact_messages_sent.fetch_add(1, Ordering::Relaxed);
+                    } else {
+                        shared.messages_dropped.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            }
+        }
+        shared.monitor_passes.fetch_add(1, Ordering::Relaxed);
+        next += period;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
+        }
+    }
+}

@@ -1,0 +1,90 @@
+//! What the runtime's threads share: the table, the parameters, the flags and the counters.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::time::Duration;
+
+use parking_lot::RwLock;
+
+use super::table::BallTable;
+use crate::physics::{Effects, Field, Integrator};
+
+/// How the threaded runtime runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RuntimeConfig {
+    /// Period a ball thread aims for between updates (the original design: about 1 ms).
+    pub ball_cycle: Duration,
+    /// Longest single integration step, s; a longer measured dt is split into sub-steps.
+    pub max_step: f64,
+    /// Period the collision monitor aims for between passes.
+    pub monitor_period: Duration,
+    /// Most balls at once (the original design: 1,024).
+    pub max_balls: usize,
+}
+
+impl Default for RuntimeConfig {
+    fn default() -> Self {
+        RuntimeConfig {
+            ball_cycle: Duration::from_millis(1),
+            max_step: 0.002,
+            monitor_period: Duration::from_millis(1),
+            max_balls: 1024,
+        }
+    }
+}
+
+/// Parameters every ball thread follows; changed rarely (panel, hotkeys), read once per change.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub field: Field,
+    pub effects: Effects,
+    pub integrator: Integrator,
+    /// Simulated seconds per wall-clock second (1 = real time, < 1 = slow motion).
+    pub time_scale: f64,
+}
+
+pub(crate) struct Shared {
+    pub config: RuntimeConfig,
+    pub table: BallTable,
+    pub params: RwLock<Params>,
+    /// Bumped (Release) after every change of `params`; ball threads poll it (Acquire) once per
+    /// cycle and take the read lock only when it moved — the hot path never locks.
+    pub params_generation: AtomicU64,
+    pub paused: AtomicBool,
+    /// Cleared to stop the monitor.
+    pub monitor_running: AtomicBool,
+    /// Every occupied slot is below this. Raised (Release) by the runtime after it has written
+    /// the new slot's first record, so a reader that loads it (Acquire) sees that record.
+    pub high_water: AtomicUsize,
+    /// Ball threads that panicked.
+    pub panicked: AtomicU64,
+    // Monitor statistics. Relaxed everywhere: plain counters, read only for reports.
+    pub monitor_passes: AtomicU64,
+    pub contact_messages_sent: AtomicU64,
+    pub contacts_deferred: AtomicU64,
+    pub messages_dropped: AtomicU64,
+}
+
+impl Shared {
+    pub fn new(config: RuntimeConfig, params: Params) -> Self {
+        Shared {
+            config,
+            table: BallTable::new(config.max_balls),
+            params: RwLock::new(params),
+            params_generation: AtomicU64::new(0),
+            paused: AtomicBool::new(false),
+            monitor_running: AtomicBool::new(true),
+            high_water: AtomicUsize::new(0),
+            panicked: AtomicU64::new(0),
+            monitor_passes: AtomicU64::new(0),
+            contact_messages_sent: AtomicU64::new(0),
+            contacts_deferred: AtomicU64::new(0),
+            messages_dropped: AtomicU64::new(0),
+        }
+    }
+
+    pub fn update_params(&self, f: impl FnOnce(&mut Params)) {
+        f(&mut self.params.write());
+        // Release: a thread that sees the new generation with Acquire then reads the new params.
+        self.params_generation.fetch_add(1, Ordering::Release);
+    }
+}
