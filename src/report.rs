@@ -102,8 +102,12 @@ impl RunReport {
             let st = &t.stats;
             let _ = writeln!(
                 s,
-                "threads      {} balls: update rate min {:.0}/s, median {:.0}/s; monitor {:.0} passes/s",
-                st.balls, st.ball_rate_min, st.ball_rate_median, st.monitor_passes_per_second
+                "threads      {} balls: update rate min {:.0}/s, median {:.0}/s; monitor {:.0} passes/s ({:.0} µs each)",
+                st.balls,
+                st.ball_rate_min,
+                st.ball_rate_median,
+                st.monitor_passes_per_second,
+                st.monitor_pass_seconds * 1e6
             );
             let _ = writeln!(
                 s,

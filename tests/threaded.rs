@@ -11,6 +11,14 @@ use ballfield::scene::Origin;
 use ballfield::scenes;
 use glam::DVec2;
 
+/// The tests here measure a machine's worth of threads; run them one at a time so that one test's
+/// thousand threads do not starve another's (cargo runs the tests of a file in parallel).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn scene(text: &str) -> Scene {
     Scene::from_toml_str(text, &Origin("test".into())).unwrap()
 }
@@ -50,10 +58,14 @@ fn check_inside(field: &Field, balls: &[Ball]) {
 /// each... with margin for a loaded CI machine where the window is longer).
 #[test]
 fn gas_keeps_momentum_through_walls_and_energy_within_bounds() {
+    let _serial = serial();
     let gas = scenes::builtin("gas").unwrap().unwrap();
+    // The start is the scene itself: the balls begin moving (and may hit a wall) while the
+    // others' threads are still being spawned.
+    let start_bodies = ballfield::physics::Bodies::from_balls(&gas.balls);
+    let start_p = ballfield::physics::momentum(&start_bodies);
+    let start = measure(&start_bodies, &gas.field, &gas.effects, Default::default());
     let rt = Runtime::start(&gas, RuntimeConfig::default()).unwrap();
-    let start_p = momentum_of(&rt.snapshot());
-    let start = measure(&rt.bodies(), &gas.field, &gas.effects, Default::default());
     std::thread::sleep(Duration::from_secs(5));
     settle(&rt);
     let records = rt.snapshot();
@@ -80,6 +92,7 @@ fn gas_keeps_momentum_through_walls_and_energy_within_bounds() {
 
 #[test]
 fn balls_under_gravity_and_drag_stay_finite_and_inside() {
+    let _serial = serial();
     let s = scenes::builtin("default").unwrap().unwrap();
     let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
     std::thread::sleep(Duration::from_secs(2));
@@ -95,6 +108,7 @@ fn balls_under_gravity_and_drag_stay_finite_and_inside() {
 
 #[test]
 fn the_pull_moves_the_key_ball_its_way() {
+    let _serial = serial();
     let s = scene("name = \"pull\"\n[key-ball]\nposition = [35.0, 25.0]\nmass = 2.0\ndiameter = 1.0\npull = 100.0\n");
     let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
     rt.set_pull(DVec2::new(-4.0, 3.0));
@@ -115,6 +129,7 @@ fn the_pull_moves_the_key_ball_its_way() {
 /// joins them all.
 #[test]
 fn add_remove_storm_leaves_exactly_the_expected_balls() {
+    let _serial = serial();
     let s = scene("name = \"storm\"\n[simulation]\nmax-balls = 600\n[effects]\ncollisions = {}\n");
     let rt = Arc::new(Runtime::start(&s, RuntimeConfig { max_balls: 600, ..RuntimeConfig::default() }).unwrap());
     let workers: Vec<_> = (0..4)
@@ -170,6 +185,7 @@ fn add_remove_storm_leaves_exactly_the_expected_balls() {
 
 #[test]
 fn the_ball_limit_is_an_error_not_a_crash() {
+    let _serial = serial();
     let s = scene("name = \"limit\"\n[simulation]\nmax-balls = 3\n");
     let rt = Runtime::start(&s, RuntimeConfig { max_balls: 3, ..RuntimeConfig::default() }).unwrap();
     for _ in 0..3 {
@@ -184,6 +200,7 @@ fn the_ball_limit_is_an_error_not_a_crash() {
 
 #[test]
 fn shutdown_with_1024_balls_joins_every_thread_within_a_second() {
+    let _serial = serial();
     let s = scene(
         "name = \"crowd\"\n[simulation]\nmax-balls = 1024\n[effects]\ncollisions = {}\n\
          [[generate]]\ncount = 1024\ndiameter = 0.8\nmass = 1.0\nspeed = 3.0\n",
@@ -202,6 +219,7 @@ fn shutdown_with_1024_balls_joins_every_thread_within_a_second() {
 
 #[test]
 fn a_panicking_ball_is_reported_and_the_others_keep_running() {
+    let _serial = serial();
     let s = scenes::builtin("vacuum").unwrap().unwrap();
     let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
     let victim = rt.ball_ids()[3];
@@ -222,6 +240,7 @@ fn a_panicking_ball_is_reported_and_the_others_keep_running() {
 
 #[test]
 fn pause_stops_time_and_resume_continues() {
+    let _serial = serial();
     let s = scenes::builtin("vacuum").unwrap().unwrap();
     let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
     std::thread::sleep(Duration::from_millis(100));

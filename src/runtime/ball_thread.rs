@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError};
+use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
 use super::message::Message;
@@ -67,6 +67,7 @@ enum Handled {
 /// table at `slot` (written by the runtime before this thread started).
 pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Receiver<Message>) {
     let _guard = PanicGuard { shared: &shared, slot };
+    batch_scheduling();
     let cycle = shared.config.ball_cycle;
     let max_step = shared.config.max_step;
     let mut state = BallState { ball, slot, pull: DVec2::ZERO, applied: 0, updates: 0, walls: WallImpulses::default() };
@@ -77,30 +78,46 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     let mut scratch = IntegratorScratch::default();
     let mut others: Vec<BallRecord> = Vec::new();
     let mut last = Instant::now();
-    let mut deadline = last + cycle;
+    // Every ball wakes on the same grid of instants (the runtime's epoch plus whole cycles), so
+    // the kernel serves all their timers with one interrupt per cycle instead of one per ball.
+    let epoch = shared.epoch;
+    let next_tick = |now: Instant| -> Instant {
+        let since = now.saturating_duration_since(epoch).as_nanos();
+        let period = cycle.as_nanos().max(1);
+        epoch + Duration::from_nanos(((since / period + 1) * period) as u64)
+    };
+    let mut deadline = next_tick(last);
     loop {
-        // Wait for the next cycle; messages that arrive meanwhile are applied at once.
+        // Sleep until the next cycle, then apply what arrived meanwhile. A plain sleep is one
+        // timer wake-up per cycle; a blocking receive with a deadline (crossbeam's) first spins
+        // and yields, which with a thousand threads on two cores burns the CPU the balls need.
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        }
+        let mut received = false;
         loop {
-            match inbox.recv_deadline(deadline) {
+            match inbox.try_recv() {
                 Ok(message) => {
+                    received = true;
                     if let Handled::Stop = handle(message, &mut state, &mut params) {
                         state.publish(&shared);
                         return;
                     }
-                    state.publish(&shared);
                 }
-                Err(RecvTimeoutError::Timeout) => break,
-                Err(RecvTimeoutError::Disconnected) => return,
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => {
+                    state.publish(&shared);
+                    return;
+                }
             }
         }
         let now = Instant::now();
         let elapsed = now - last;
         last = now;
-        deadline += cycle;
-        if deadline < now {
-            // Fell behind (a loaded machine): don't try to catch up with a burst of cycles.
-            deadline = now + cycle;
-        }
+        // The next grid instant after now: a ball that fell behind (a loaded machine) skips the
+        // instants it missed rather than catching up in a burst.
+        deadline = next_tick(now);
         let g = shared.params_generation.load(Ordering::Acquire);
         if g != generation {
             generation = g;
@@ -114,6 +131,10 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         }
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
+            if received {
+                // Messages still land while paused (and the monitor sees them applied).
+                state.publish(&shared);
+            }
             continue;
         }
         let dt = elapsed.as_secs_f64() * params.time_scale;
@@ -213,5 +234,30 @@ fn advance(
             &params.field,
             &mut state.walls,
         );
+    }
+}
+
+/// Asks Linux to schedule this thread as a batch job (SCHED_BATCH): a waking ball then does not
+/// preempt the thread that is running (another ball, the monitor, the renderer) but waits for it
+/// to sleep. Ball cycles are short and frequent, so this trades a little wake-up latency for far
+/// fewer context switches. Best effort: elsewhere, or if refused, nothing changes.
+/// Ball threads run at this nice value, so that under load the monitor and the render loop
+/// (nice 0) still get the CPU they need. Raising niceness needs no privilege.
+const BALL_NICE: libc::c_int = 5;
+
+fn batch_scheduling() {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: sched_setscheduler with pid 0 acts on the calling thread; `param` is a valid,
+        // initialised sched_param that outlives the call. No memory is shared with the kernel
+        // after it returns.
+        let param = libc::sched_param { sched_priority: 0 };
+        let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_BATCH, &param) };
+        if rc != 0 {
+            log::debug!("SCHED_BATCH refused: {}", std::io::Error::last_os_error());
+        }
+        // SAFETY: setpriority on PRIO_PROCESS with who = 0 changes only the calling thread's nice
+        // value on Linux; it takes no pointers.
+        unsafe { libc::setpriority(libc::PRIO_PROCESS, 0, BALL_NICE) };
     }
 }

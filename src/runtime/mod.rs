@@ -86,6 +86,8 @@ pub struct RuntimeStats {
     pub ball_rate_median: f64,
     pub monitor_passes: u64,
     pub monitor_passes_per_second: f64,
+    /// Mean wall time of one monitor pass, s (includes time it was preempted).
+    pub monitor_pass_seconds: f64,
     /// Contact messages (impulse + shift) the monitor sent, and those the balls applied.
     pub impulses_sent: u64,
     pub impulses_applied: u64,
@@ -146,15 +148,17 @@ impl Runtime {
             started: Instant::now(),
             seed: scene.seed,
         };
-        for ball in &scene.balls {
-            runtime.insert(*ball, Some(ball.id))?;
-        }
         let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
         let monitor = std::thread::Builder::new()
             .name("collision-monitor".into())
             .spawn(move || monitor::run_monitor(shared, inboxes))
             .map_err(|e| RuntimeError::Spawn(e.to_string()))?;
         *runtime.monitor.lock() = Some(monitor);
+        // The monitor first: spawning a thousand ball threads on a busy machine takes a while,
+        // and the balls already running must not go unwatched meanwhile.
+        for ball in &scene.balls {
+            runtime.insert(*ball, Some(ball.id))?;
+        }
         Ok(runtime)
     }
 
@@ -455,6 +459,8 @@ impl Runtime {
             ball_rate_median: rates.get(rates.len() / 2).copied().unwrap_or(0.0),
             monitor_passes: passes,
             monitor_passes_per_second: passes as f64 / seconds.max(1e-9),
+            monitor_pass_seconds: self.shared.monitor_busy_ns.load(Ordering::Relaxed) as f64 * 1e-9
+                / passes.max(1) as f64,
             impulses_sent: self.shared.contact_messages_sent.load(Ordering::Relaxed),
             impulses_applied: reg.retired.applied + records.iter().map(|r| r.applied).sum::<u64>(),
             contacts_deferred: self.shared.contacts_deferred.load(Ordering::Relaxed),

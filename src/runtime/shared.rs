@@ -44,6 +44,8 @@ pub struct Params {
 
 pub(crate) struct Shared {
     pub config: RuntimeConfig,
+    /// The instant the runtime started: ball cycles are aligned to it.
+    pub epoch: std::time::Instant,
     pub table: BallTable,
     pub params: RwLock<Params>,
     /// Bumped (Release) after every change of `params`; ball threads poll it (Acquire) once per
@@ -59,6 +61,8 @@ pub(crate) struct Shared {
     pub panicked: AtomicU64,
     // Monitor statistics. Relaxed everywhere: plain counters, read only for reports.
     pub monitor_passes: AtomicU64,
+    /// Wall time the monitor spent inside its passes (not sleeping), ns.
+    pub monitor_busy_ns: AtomicU64,
     pub contact_messages_sent: AtomicU64,
     pub contacts_deferred: AtomicU64,
     pub messages_dropped: AtomicU64,
@@ -68,6 +72,7 @@ impl Shared {
     pub fn new(config: RuntimeConfig, params: Params) -> Self {
         Shared {
             config,
+            epoch: std::time::Instant::now(),
             table: BallTable::new(config.max_balls),
             params: RwLock::new(params),
             params_generation: AtomicU64::new(0),
@@ -76,6 +81,7 @@ impl Shared {
             high_water: AtomicUsize::new(0),
             panicked: AtomicU64::new(0),
             monitor_passes: AtomicU64::new(0),
+            monitor_busy_ns: AtomicU64::new(0),
             contact_messages_sent: AtomicU64::new(0),
             contacts_deferred: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),

@@ -1,22 +1,29 @@
 //! The shared ball table: one slot per ball, one writer per slot, readers that never block.
 //!
-//! Each slot is a sequence lock over atomic words (no `unsafe` anywhere: every word is an
-//! `AtomicU64`, so a racing read is never undefined behaviour, only possibly inconsistent — and
-//! the sequence number tells the reader when it was, so it retries).
+//! Each slot is a *latched* sequence lock (Linux's `seqcount_latch`) over two copies of the
+//! record, all atomic words — no `unsafe` anywhere: a racing read is never undefined behaviour,
+//! only possibly inconsistent, and the sequence number tells the reader when, so it retries.
 //!
-//! Protocol (Boehm, "Can seqlocks get along with programming language memory models?", 2012):
-//! - **writer** (the ball's own thread, the only one): `seq ← seq + 1` (odd: write in progress),
-//!   a release fence, the data words with relaxed stores, then `seq ← seq + 2` with a release
-//!   store (even: stable).
-//! - **reader** (monitor, renderer, other balls): load `seq` with acquire; if odd, retry; load the
-//!   data words relaxed; an acquire fence; load `seq` relaxed again; if it changed, retry.
+//! Why two copies: with a plain seqlock a reader must wait while a write is in progress, and on a
+//! loaded machine with a thousand ball threads the writer can be preempted in the middle of its
+//! write for many milliseconds — the monitor and the renderer would spin all that time. With the
+//! latch, the writer updates the copies one after the other and `seq` always points readers at
+//! the copy that is *not* being written, so a reader never waits for a stalled writer; it retries
+//! only if the writer finished a copy and moved on while it was reading.
 //!
-//! Why these orderings: the release fence after the odd store keeps the data stores from being
-//! seen before the odd `seq` (so a reader that read any new data word then sees `seq` changed);
-//! the release store of the even `seq` publishes all data stores before it to a reader whose
-//! acquire load sees it; the reader's acquire fence keeps its data loads from moving after its
-//! second `seq` load. Together: if both loads of `seq` return the same even value, every data
-//! word read belongs to that one write — no torn entry (x of one step with y of another).
+//! Protocol:
+//! - **writer** (the ball's own thread, the only one): `seq ← s + 1` (odd: readers use copy 1),
+//!   release fence, write copy 0; `seq ← s + 2` with a release store (even: readers use copy 0),
+//!   release fence, write copy 1.
+//! - **reader** (monitor, renderer, other balls): `s1 ← seq` (acquire); read copy `s1 & 1`
+//!   (relaxed); acquire fence; `s2 ← seq` (relaxed); if `s1 ≠ s2`, retry.
+//!
+//! Orderings: each release fence keeps the copy writes after it from becoming visible before the
+//! `seq` store before it, so a reader that sees any word of a copy being rewritten also sees `seq`
+//! moved on when it re-reads it after its acquire fence, and retries. The release store of
+//! `s + 2` publishes the finished copy 0 to readers that acquire that value (copy 1 is published
+//! by the next write's odd store and its fence in the same way). Together: if both loads of `seq`
+//! agree, every word read belongs to one write — no torn entry (x of one step with y of another).
 
 use std::sync::atomic::{AtomicU64, Ordering, fence};
 
@@ -56,12 +63,45 @@ pub struct BallRecord {
 #[repr(align(128))] // one slot per pair of cache lines: writers of neighbouring slots don't false-share
 struct Slot {
     seq: AtomicU64,
-    words: [AtomicU64; WORDS],
+    copies: [[AtomicU64; WORDS]; 2],
 }
 
 impl Slot {
     fn new() -> Self {
-        Slot { seq: AtomicU64::new(0), words: std::array::from_fn(|_| AtomicU64::new(0)) }
+        Slot { seq: AtomicU64::new(0), copies: std::array::from_fn(|_| std::array::from_fn(|_| AtomicU64::new(0))) }
+    }
+
+    /// The latch write (see the module comment). Single writer only.
+    fn write_words(&self, words: &[u64; WORDS]) {
+        // Only this thread writes `seq`, so a relaxed load of it is exact.
+        let seq = self.seq.load(Ordering::Relaxed);
+        for (k, copy) in self.copies.iter().enumerate() {
+            // k = 0: odd, readers move to copy 1; k = 1: even, readers move to copy 0. Release
+            // publishes the copy finished just before (for k = 1) to readers acquiring this value.
+            self.seq.store(seq.wrapping_add(1 + k as u64), Ordering::Release);
+            // Keeps the stores below from being seen before the `seq` store above.
+            fence(Ordering::Release);
+            for (w, v) in copy.iter().zip(words) {
+                w.store(*v, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn read_words(&self) -> [u64; WORDS] {
+        loop {
+            let seq1 = self.seq.load(Ordering::Acquire);
+            let copy = &self.copies[(seq1 & 1) as usize];
+            let mut raw = [0u64; WORDS];
+            for (r, w) in raw.iter_mut().zip(copy) {
+                *r = w.load(Ordering::Relaxed);
+            }
+            // Keeps the data loads above from being reordered after the second `seq` load.
+            fence(Ordering::Acquire);
+            if self.seq.load(Ordering::Relaxed) == seq1 {
+                return raw;
+            }
+            std::hint::spin_loop();
+        }
     }
 }
 
@@ -82,87 +122,57 @@ impl BallTable {
     /// Publishes the state of the ball in `slot`. Only that ball's own thread may call this (and
     /// the runtime, to clear a slot after that thread has been joined).
     pub fn write(&self, slot: usize, record: &BallRecord) {
-        let s = &self.slots[slot];
-        // Only this thread writes `seq`, so a relaxed load of it is exact.
-        let seq = s.seq.load(Ordering::Relaxed);
-        s.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
-        // Orders the odd `seq` store before the data stores below (see the module comment).
-        fence(Ordering::Release);
         let b = &record.ball;
-        let id_word = (b.id.0 as u64 + 1) | if b.kind == BallKind::Key { KEY_BIT } else { 0 };
-        let w = &s.words;
-        w[W_ID].store(id_word, Ordering::Relaxed);
-        w[W_X].store(b.position.x.to_bits(), Ordering::Relaxed);
-        w[W_Y].store(b.position.y.to_bits(), Ordering::Relaxed);
-        w[W_VX].store(b.velocity.x.to_bits(), Ordering::Relaxed);
-        w[W_VY].store(b.velocity.y.to_bits(), Ordering::Relaxed);
-        w[W_MASS].store(b.mass.to_bits(), Ordering::Relaxed);
-        w[W_DIAMETER].store(b.diameter.to_bits(), Ordering::Relaxed);
-        w[W_APPLIED].store(record.applied, Ordering::Relaxed);
-        w[W_UPDATES].store(record.updates, Ordering::Relaxed);
         let wi = &record.wall_impulses;
+        let mut w = [0u64; WORDS];
+        w[W_ID] = (b.id.0 as u64 + 1) | if b.kind == BallKind::Key { KEY_BIT } else { 0 };
+        w[W_X] = b.position.x.to_bits();
+        w[W_Y] = b.position.y.to_bits();
+        w[W_VX] = b.velocity.x.to_bits();
+        w[W_VY] = b.velocity.y.to_bits();
+        w[W_MASS] = b.mass.to_bits();
+        w[W_DIAMETER] = b.diameter.to_bits();
+        w[W_APPLIED] = record.applied;
+        w[W_UPDATES] = record.updates;
         for (k, v) in [wi.left, wi.right, wi.bottom, wi.top].into_iter().enumerate() {
-            w[W_WALL + k].store(v.to_bits(), Ordering::Relaxed);
+            w[W_WALL + k] = v.to_bits();
         }
-        // Publishes every data store above to readers that acquire the even `seq`.
-        s.seq.store(seq.wrapping_add(2), Ordering::Release);
+        self.slots[slot].write_words(&w);
     }
 
     /// Marks `slot` empty. Same single-writer rule as [`BallTable::write`].
     pub fn clear(&self, slot: usize) {
-        let s = &self.slots[slot];
-        let seq = s.seq.load(Ordering::Relaxed);
-        s.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
-        fence(Ordering::Release);
-        s.words[W_ID].store(0, Ordering::Relaxed);
-        s.seq.store(seq.wrapping_add(2), Ordering::Release);
+        self.slots[slot].write_words(&[0; WORDS]);
     }
 
     /// Reads a consistent record of `slot`, or `None` if the slot is empty. Never blocks the
-    /// writer; retries (spinning) only while a write is in progress, which takes nanoseconds.
+    /// writer and never waits for it: it retries only if a write completed while it read.
     pub fn read(&self, slot: usize) -> Option<BallRecord> {
-        let s = &self.slots[slot];
-        loop {
-            let seq1 = s.seq.load(Ordering::Acquire);
-            if seq1 & 1 == 1 {
-                std::hint::spin_loop();
-                continue;
-            }
-            let mut raw = [0u64; WORDS];
-            for (r, w) in raw.iter_mut().zip(&s.words) {
-                *r = w.load(Ordering::Relaxed);
-            }
-            // Keeps the data loads above from being reordered after the second `seq` load.
-            fence(Ordering::Acquire);
-            if s.seq.load(Ordering::Relaxed) != seq1 {
-                std::hint::spin_loop();
-                continue;
-            }
-            if raw[W_ID] == 0 {
-                return None;
-            }
-            let f = |k: usize| f64::from_bits(raw[k]);
-            let kind = if raw[W_ID] & KEY_BIT != 0 { BallKind::Key } else { BallKind::Ball };
-            return Some(BallRecord {
-                slot,
-                ball: Ball {
-                    id: BallId(((raw[W_ID] & !KEY_BIT) - 1) as u32),
-                    kind,
-                    position: DVec2::new(f(W_X), f(W_Y)),
-                    velocity: DVec2::new(f(W_VX), f(W_VY)),
-                    mass: f(W_MASS),
-                    diameter: f(W_DIAMETER),
-                },
-                applied: raw[W_APPLIED],
-                updates: raw[W_UPDATES],
-                wall_impulses: WallImpulses {
-                    left: f(W_WALL),
-                    right: f(W_WALL + 1),
-                    bottom: f(W_WALL + 2),
-                    top: f(W_WALL + 3),
-                },
-            });
+        let raw = self.slots[slot].read_words();
+        if raw[W_ID] == 0 {
+            return None;
         }
+        let f = |k: usize| f64::from_bits(raw[k]);
+        let kind = if raw[W_ID] & KEY_BIT != 0 { BallKind::Key } else { BallKind::Ball };
+        Some(BallRecord {
+            slot,
+            ball: Ball {
+                id: BallId(((raw[W_ID] & !KEY_BIT) - 1) as u32),
+                kind,
+                position: DVec2::new(f(W_X), f(W_Y)),
+                velocity: DVec2::new(f(W_VX), f(W_VY)),
+                mass: f(W_MASS),
+                diameter: f(W_DIAMETER),
+            },
+            applied: raw[W_APPLIED],
+            updates: raw[W_UPDATES],
+            wall_impulses: WallImpulses {
+                left: f(W_WALL),
+                right: f(W_WALL + 1),
+                bottom: f(W_WALL + 2),
+                top: f(W_WALL + 3),
+            },
+        })
     }
 
     /// Reads every occupied slot below `high_water` into `out` (cleared first), in slot order.
