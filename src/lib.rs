@@ -7,6 +7,7 @@
 //! - [`lockstep`] — the deterministic reference engine;
 //! - [`headless`], [`state_file`], [`report`] — the command line's runs and files.
 
+pub mod accuracy;
 pub mod headless;
 pub mod lockstep;
 pub mod physics;

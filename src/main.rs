@@ -26,6 +26,18 @@ struct Cli {
 enum Command {
     /// Run a scene without a window and report on it.
     Headless(HeadlessArgs),
+    /// Measure each integrator's error against exact answers and the time it costs.
+    Accuracy(AccuracyArgs),
+}
+
+#[derive(Args, Debug)]
+struct AccuracyArgs {
+    /// Where to write accuracy.csv, accuracy.svg and summary.md.
+    #[arg(long, value_name = "DIR", default_value = "docs/accuracy")]
+    out: PathBuf,
+    /// A short sweep: seconds instead of a minute or two.
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,6 +170,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 print!("{}", report.summary());
             }
         }
+        Some(Command::Accuracy(args)) => ballfield::accuracy::run_command(&args.out, args.quick)?,
     }
     Ok(())
 }

@@ -14,6 +14,12 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("pile", include_str!("../assets/scenes/pile.toml")),
     ("gas", include_str!("../assets/scenes/gas.toml")),
     ("cradle", include_str!("../assets/scenes/cradle.toml")),
+    ("reference/kepler-e0", include_str!("../assets/scenes/reference/kepler-e0.toml")),
+    ("reference/kepler-e05", include_str!("../assets/scenes/reference/kepler-e05.toml")),
+    ("reference/drag-fall", include_str!("../assets/scenes/reference/drag-fall.toml")),
+    ("reference/projectile", include_str!("../assets/scenes/reference/projectile.toml")),
+    ("reference/collision-head-on", include_str!("../assets/scenes/reference/collision-head-on.toml")),
+    ("reference/collision-oblique", include_str!("../assets/scenes/reference/collision-oblique.toml")),
 ];
 
 /// Loads a built-in scene by name.
