@@ -21,10 +21,19 @@ use crate::physics::{
 };
 use crate::scene::Scene;
 
+/// Largest distance a ball may travel in one (sub-)step with collisions on, in radii.
+pub const MAX_TRAVEL: f64 = 0.5;
+/// Passes of the contact solver over the touching pairs in each (sub-)step.
+pub const CONTACT_ITERATIONS: usize = 4;
+/// Most sub-steps one step is split into.
+pub const MAX_SUBSTEPS: u32 = 4096;
+
 /// Time spent in each phase, summed over steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct StepCounters {
     pub steps: u64,
+    /// Sub-steps taken (equal to `steps` when no ball was fast; see [`MAX_TRAVEL`]).
+    pub substeps: u64,
     #[serde(serialize_with = "secs")]
     pub integrate: Duration,
     #[serde(serialize_with = "secs")]
@@ -214,27 +223,51 @@ impl Lockstep {
 
     /// Advances one step of `dt`.
     pub fn step(&mut self) {
+        // With collisions on, a ball may move at most MAX_TRAVEL of its radius per (sub-)step, so
+        // two approaching balls can never jump past each other between two contact checks: a
+        // step in which some ball is faster than that is split into equal sub-steps (at most
+        // MAX_SUBSTEPS). Slow fields pay one pass over the speeds.
+        let substeps = if self.effects.collisions.is_some() { self.substeps_needed() } else { 1 };
+        self.counters.substeps += substeps as u64;
+        let h = self.dt / substeps as f64;
+        for _ in 0..substeps {
+            self.substep(h);
+        }
+        self.steps += 1;
+        self.counters.steps += 1;
+        self.time = self.steps as f64 * self.dt;
+    }
+
+    /// Sub-steps this step needs (see [`Lockstep::step`]).
+    fn substeps_needed(&self) -> u32 {
+        let b = &self.bodies;
+        let mut worst = 0.0f64; // largest |v|·dt / r
+        for i in 0..b.len() {
+            worst = worst.max(b.velocity[i].length_squared() / (b.radius[i] * b.radius[i]));
+        }
+        let travel = worst.sqrt() * self.dt / MAX_TRAVEL;
+        if travel <= 1.0 { 1 } else { (travel.ceil() as u32).min(MAX_SUBSTEPS) }
+    }
+
+    fn substep(&mut self, h: f64) {
         let t0 = Instant::now();
-        self.integrate_phase();
+        self.integrate_phase(h);
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
         if let Some(collisions) = self.effects.collisions {
             self.broad_phase_phase();
             let t2 = Instant::now();
             self.counters.broad_phase += t2 - t1;
-            self.contacts_phase(collisions.restitution);
+            self.contacts_phase(collisions.restitution, h);
             let t3 = Instant::now();
             self.counters.contacts += t3 - t2;
         }
         let t4 = Instant::now();
         self.walls_phase();
         self.counters.walls += t4.elapsed();
-        self.steps += 1;
-        self.counters.steps += 1;
-        self.time = self.steps as f64 * self.dt;
     }
 
-    fn integrate_phase(&mut self) {
+    fn integrate_phase(&mut self, dt: f64) {
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
@@ -243,14 +276,14 @@ impl Lockstep {
         if self.forces.is_empty() && pull.is_none() {
             // No force at all: every integrator reduces to a straight drift, so that is all we do.
             for (x, v) in position.iter_mut().zip(velocity.iter()) {
-                *x += *v * self.dt;
+                *x += *v * dt;
             }
             return;
         }
         let props = crate::physics::BodyProps { mass, inverse_mass, diameter };
         let forces = &self.forces;
         let velocity_dependent = forces.depends_on_velocity();
-        integrate(self.integrator, self.dt, position, velocity, velocity_dependent, &mut self.scratch, |x, v, a| {
+        integrate(self.integrator, dt, position, velocity, velocity_dependent, &mut self.scratch, |x, v, a| {
             forces.accelerations(props, pull, x, v, a)
         });
     }
@@ -264,26 +297,36 @@ impl Lockstep {
         self.counters.touching_pairs += self.pairs.len() as u64;
     }
 
-    fn contacts_phase(&mut self, restitution: f64) {
+    /// Sequential impulses over the touching pairs, [`CONTACT_ITERATIONS`] passes: the first
+    /// resolves the collisions, the later ones the overlaps that resolving one pair of a crowd or a
+    /// pile pushes into its neighbours (a pair that no longer overlaps is skipped).
+    fn contacts_phase(&mut self, restitution: f64, dt: f64) {
         let b = &mut self.bodies;
         let mut impulses = 0;
-        for &(i, j) in &self.pairs {
-            let (i, j) = (i as usize, j as usize);
-            let body = |k: usize| ContactBody {
-                id: b.id[k],
-                position: b.position[k],
-                velocity: b.velocity[k],
-                inverse_mass: b.inverse_mass[k],
-                radius: b.radius[k],
-            };
-            if let Some(c) = contact_ball_ball(&body(i), &body(j), restitution) {
-                if c.impulse > 0.0 {
-                    b.velocity[i] += c.velocity_change_a;
-                    b.velocity[j] += c.velocity_change_b;
-                    impulses += 1;
+        for _ in 0..CONTACT_ITERATIONS {
+            let mut active = 0;
+            for &(i, j) in &self.pairs {
+                let (i, j) = (i as usize, j as usize);
+                let body = |k: usize| ContactBody {
+                    id: b.id[k],
+                    position: b.position[k],
+                    velocity: b.velocity[k],
+                    inverse_mass: b.inverse_mass[k],
+                    radius: b.radius[k],
+                };
+                if let Some(c) = contact_ball_ball(&body(i), &body(j), restitution, dt) {
+                    if c.impulse > 0.0 {
+                        b.velocity[i] += c.velocity_change_a;
+                        b.velocity[j] += c.velocity_change_b;
+                        impulses += 1;
+                    }
+                    b.position[i] += c.shift_a;
+                    b.position[j] += c.shift_b;
+                    active += 1;
                 }
-                b.position[i] += c.shift_a;
-                b.position[j] += c.shift_b;
+            }
+            if active == 0 {
+                break;
             }
         }
         self.counters.impulses += impulses;

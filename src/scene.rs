@@ -131,6 +131,8 @@ impl Default for FieldSpec {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case", default)]
 struct SimulationSpec {
+    /// Let listed balls overlap and lattices be packed tighter than touching (for hard cases).
+    allow_overlap: bool,
     integrator: String,
     dt: f64,
     seed: u64,
@@ -141,6 +143,7 @@ struct SimulationSpec {
 impl Default for SimulationSpec {
     fn default() -> Self {
         SimulationSpec {
+            allow_overlap: false,
             integrator: Integrator::default().name().to_string(),
             dt: 0.001,
             seed: 42,
@@ -634,8 +637,13 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
         .map(|b| b.diameter)
         .chain(file.generate.iter().map(|g| if g.diameter.is_finite() { g.diameter } else { 0.0 }))
         .fold(0.0f64, f64::max);
+    let allow_overlap = file.simulation.allow_overlap;
     let mut placed = Placed::new(largest);
     for (k, b) in balls.iter().enumerate() {
+        if allow_overlap {
+            placed.insert(b.position, b.radius());
+            continue;
+        }
         if let Some(other) = placed.overlapping(b.position, b.radius()) {
             return Err(c.invalid(
                 with(&paths[k], Key("position")),
@@ -656,7 +664,14 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
         let diameter = c.positive(&with(&p, Key("diameter")), g.diameter)?;
         let mass = c.positive(&with(&p, Key("mass")), g.mass)?;
         let speed = c.non_negative(&with(&p, Key("speed")), g.speed)?;
-        let gap = c.non_negative(&with(&p, Key("gap")), g.gap)?;
+        let gap = if allow_overlap {
+            if !(g.gap.is_finite() && g.gap > -0.5) {
+                return Err(c.invalid(with(&p, Key("gap")), g.gap, "must be a finite number above -0.5"));
+            }
+            g.gap
+        } else {
+            c.non_negative(&with(&p, Key("gap")), g.gap)?
+        };
         if diameter > width.min(height) {
             return Err(c.invalid(
                 with(&p, Key("diameter")),
@@ -742,7 +757,7 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
                             continue;
                         }
                         let pos = DVec2::new(x, y);
-                        if placed.overlapping(pos, r).is_none() {
+                        if allow_overlap || placed.overlapping(pos, r).is_none() {
                             placed.insert(pos, r);
                             add(pos, &mut rng, &mut balls);
                             n += 1;

@@ -20,6 +20,16 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("reference/projectile", include_str!("../assets/scenes/reference/projectile.toml")),
     ("reference/collision-head-on", include_str!("../assets/scenes/reference/collision-head-on.toml")),
     ("reference/collision-oblique", include_str!("../assets/scenes/reference/collision-oblique.toml")),
+    ("hard/pile", include_str!("../assets/scenes/hard/pile.toml")),
+    ("hard/elastic-pile", include_str!("../assets/scenes/hard/elastic-pile.toml")),
+    ("hard/cradle", include_str!("../assets/scenes/hard/cradle.toml")),
+    ("hard/mass-ratio", include_str!("../assets/scenes/hard/mass-ratio.toml")),
+    ("hard/fast", include_str!("../assets/scenes/hard/fast.toml")),
+    ("hard/close-attraction", include_str!("../assets/scenes/hard/close-attraction.toml")),
+    ("hard/crowd", include_str!("../assets/scenes/hard/crowd.toml")),
+    ("hard/coincident", include_str!("../assets/scenes/hard/coincident.toml")),
+    ("hard/corners", include_str!("../assets/scenes/hard/corners.toml")),
+    ("hard/scales", include_str!("../assets/scenes/hard/scales.toml")),
 ];
 
 /// Loads a built-in scene by name.

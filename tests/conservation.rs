@@ -15,7 +15,7 @@ fn body(id: u32, p: DVec2, v: DVec2, m: f64, d: f64) -> ContactBody {
 fn oblique(ma: f64, mb: f64, e: f64) -> (ContactBody, ContactBody, ballfield::physics::BallBallContact) {
     let a = body(0, DVec2::new(0.0, 0.0), DVec2::new(3.0, 0.5), ma, 1.0);
     let b = body(1, DVec2::new(0.8, 0.55), DVec2::new(-1.0, 0.25), mb, 1.0);
-    let c = contact_ball_ball(&a, &b, e).expect("the balls touch");
+    let c = contact_ball_ball(&a, &b, e, 0.0).expect("the balls touch");
     (a, b, c)
 }
 
@@ -68,11 +68,11 @@ fn tangential_velocity_is_untouched_and_separation_keeps_the_centre_of_mass() {
 fn separating_pairs_get_no_impulse_and_distant_pairs_no_contact() {
     let a = body(0, DVec2::ZERO, DVec2::new(-1.0, 0.0), 1.0, 1.0);
     let b = body(1, DVec2::new(0.9, 0.0), DVec2::new(1.0, 0.0), 1.0, 1.0);
-    let c = contact_ball_ball(&a, &b, 1.0).unwrap();
+    let c = contact_ball_ball(&a, &b, 1.0, 0.0).unwrap();
     assert_eq!(c.impulse, 0.0);
     assert!(c.penetration > 0.0);
     let far = body(1, DVec2::new(1.0, 0.0), DVec2::new(-1.0, 0.0), 1.0, 1.0);
-    assert!(contact_ball_ball(&a, &far, 1.0).is_none(), "exactly touching is not overlapping");
+    assert!(contact_ball_ball(&a, &far, 1.0, 0.0).is_none(), "exactly touching is not overlapping");
 }
 
 #[test]

@@ -52,9 +52,18 @@ pub fn coincident_normal(a: BallId, b: BallId) -> DVec2 {
 ///
 /// If they approach (`v_rel = (v_b − v_a)·n < 0`) the impulse is
 /// `J = −(1 + e)·v_rel / (1/m_a + 1/m_b)`; if they separate already, no impulse (this is what
-/// keeps a pair from being kicked twice). An overlap is removed by shifting both along n.
+/// keeps a pair from being kicked twice).
+///
+/// The overlap is removed in one of two ways. If the pair approached into it during the last
+/// `dt` seconds (the overlap δ was covered at the approach speed in `τ = δ/|v_rel| ≤ dt`), the
+/// collision is replayed from the instant they touched: rewound by τ, bounced, and moved on for τ
+/// with the new velocities — each ball shifts by `Δv·τ`. Uniform forces (gravity) act alike on
+/// both and drop out of the relative motion, so for e = 1 this is exact and adds no energy, where
+/// pushing the balls apart would lift one against gravity at every contact. Otherwise (resting
+/// contact, a crowd started overlapping) both are pushed apart to just touching, each by its share
+/// of inverse mass. Either way the centre of mass stays put. Pass `dt = 0` to always push.
 #[inline]
-pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64) -> Option<BallBallContact> {
+pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt: f64) -> Option<BallBallContact> {
     let d = b.position - a.position;
     let reach = a.radius + b.radius;
     let dist2 = d.length_squared();
@@ -68,17 +77,15 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64) -> 
     let w = a.inverse_mass + b.inverse_mass;
     let v_rel = (b.velocity - a.velocity).dot(normal);
     let impulse = if v_rel < 0.0 { -(1.0 + restitution) * v_rel / w } else { 0.0 };
-    let share_a = a.inverse_mass / w;
-    let share_b = b.inverse_mass / w;
-    Some(BallBallContact {
-        normal,
-        penetration,
-        impulse,
-        velocity_change_a: -impulse * a.inverse_mass * normal,
-        velocity_change_b: impulse * b.inverse_mass * normal,
-        shift_a: -penetration * share_a * normal,
-        shift_b: penetration * share_b * normal,
-    })
+    let velocity_change_a = -impulse * a.inverse_mass * normal;
+    let velocity_change_b = impulse * b.inverse_mass * normal;
+    let (shift_a, shift_b) = if v_rel < 0.0 && penetration <= -v_rel * dt {
+        let tau = penetration / -v_rel;
+        (velocity_change_a * tau, velocity_change_b * tau)
+    } else {
+        (-penetration * (a.inverse_mass / w) * normal, penetration * (b.inverse_mass / w) * normal)
+    };
+    Some(BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b })
 }
 
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's
@@ -148,26 +155,27 @@ pub fn contact_ball_wall(
     let mut touched = false;
     let (lo_x, hi_x) = (radius, field.width - radius);
     let (lo_y, hi_y) = (radius, field.height - radius);
-    if position.x < lo_x {
+    // A ball exactly at a wall and moving into it (put there by the contact solver) bounces too.
+    if position.x < lo_x || (position.x == lo_x && velocity.x < 0.0) {
         let (s, u, j) = bounce(position.x - lo_x, velocity.x, acceleration.x, e, mass);
         position.x = lo_x + s;
         velocity.x = u;
         impulses.add(Wall::Left, j);
         touched = true;
-    } else if position.x > hi_x {
+    } else if position.x > hi_x || (position.x == hi_x && velocity.x > 0.0) {
         let (s, u, j) = bounce(hi_x - position.x, -velocity.x, -acceleration.x, e, mass);
         position.x = hi_x - s;
         velocity.x = -u;
         impulses.add(Wall::Right, j);
         touched = true;
     }
-    if position.y < lo_y {
+    if position.y < lo_y || (position.y == lo_y && velocity.y < 0.0) {
         let (s, u, j) = bounce(position.y - lo_y, velocity.y, acceleration.y, e, mass);
         position.y = lo_y + s;
         velocity.y = u;
         impulses.add(Wall::Bottom, j);
         touched = true;
-    } else if position.y > hi_y {
+    } else if position.y > hi_y || (position.y == hi_y && velocity.y > 0.0) {
         let (s, u, j) = bounce(hi_y - position.y, -velocity.y, -acceleration.y, e, mass);
         position.y = hi_y - s;
         velocity.y = -u;

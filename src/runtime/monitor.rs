@@ -46,6 +46,8 @@ fn raise_priority() {
 pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     raise_priority();
     let period = shared.config.monitor_period;
+    // How far back a collision may be replayed: about one ball cycle of motion.
+    let cycle = shared.config.ball_cycle.as_secs_f64();
     let mut records: Vec<BallRecord> = Vec::new();
     let mut bodies = Bodies::new();
     let mut broad_phase = BroadPhase::new();
@@ -94,7 +96,7 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
                     inverse_mass: 1.0 / r.ball.mass,
                     radius: r.ball.radius(),
                 };
-                let Some(c) = contact_ball_ball(&body(ra), &body(rb), collisions.restitution) else { continue };
+                let Some(c) = contact_ball_ball(&body(ra), &body(rb), collisions.restitution, cycle) else { continue };
                 // Both halves or neither: a ball being removed gets nothing, and neither does its
                 // partner, so the pair's momentum stays whole.
                 let inbox = |r: &BallRecord| inboxes.get(r.slot).and_then(|s| s.as_ref());
