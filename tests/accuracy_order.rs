@@ -47,7 +47,10 @@ fn measured_orders_agree_with_theory() {
             &[Integrator::SemiImplicitEuler, Integrator::Leapfrog, Integrator::Rk4, Integrator::Yoshida4],
         ),
         ("kepler-e05", "energy", &[Integrator::SemiImplicitEuler, Integrator::Leapfrog, Integrator::Yoshida4]),
-        ("collision-head-on", "position", &Integrator::ALL),
+        // The head-on collision is not here: the contact solver replays a collision from the
+        // instant of contact (contact_ball_ball), which is exact along the line of centres, so its
+        // error is at rounding level for every integrator. The oblique one keeps an O(dt) error
+        // from the normal being taken where the balls overlap rather than where they touched.
         ("collision-oblique", "position", &Integrator::ALL),
     ];
     for (problem, measure, integrators) in must_fit {
