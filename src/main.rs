@@ -38,6 +38,9 @@ struct AccuracyArgs {
     /// A short sweep: seconds instead of a minute or two.
     #[arg(long)]
     quick: bool,
+    /// Measure the threaded runtime instead (ball cycle and ball count; writes threaded.md).
+    #[arg(long)]
+    threaded: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -169,6 +172,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if !args.quiet {
                 print!("{}", report.summary());
             }
+        }
+        Some(Command::Accuracy(args)) if args.threaded => {
+            ballfield::accuracy::run_threaded_command(&args.out, args.quick)?
         }
         Some(Command::Accuracy(args)) => ballfield::accuracy::run_command(&args.out, args.quick)?,
     }
