@@ -5,12 +5,17 @@
 //! - [`physics`] — pure f64 functions on plain data;
 //! - [`scene`] / [`scenes`] — what is on the field (TOML);
 //! - [`lockstep`] — the deterministic reference engine;
-//! - [`headless`], [`state_file`], [`report`] — the command line's runs and files.
+//! - [`app`] — the window: input, panel, the 15 ms sampling loop;
+//! - [`render`] — draws a snapshot with wgpu, in a window or offscreen;
+//! - [`headless`], [`frames`], [`state_file`], [`report`] — the command line's runs and files.
 
 pub mod accuracy;
+pub mod app;
+pub mod frames;
 pub mod headless;
 pub mod lockstep;
 pub mod physics;
+pub mod render;
 pub mod report;
 pub mod runtime;
 pub mod scene;

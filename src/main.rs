@@ -2,10 +2,13 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use ballfield::app::{self, AppOptions, EngineKind};
+use ballfield::frames::{self, FrameOptions};
 use ballfield::headless::{self, Engine, HeadlessOptions, RunLength};
 use ballfield::physics::Integrator;
 use ballfield::scenes;
@@ -18,8 +21,35 @@ struct Cli {
     #[arg(long, global = true, default_value = "default", value_name = "FILE")]
     scene: String,
 
+    #[command(flatten)]
+    play: PlayArgs,
+
     #[command(subcommand)]
     command: Option<Command>,
+}
+
+/// Options of the window (no subcommand).
+#[derive(Args, Debug)]
+struct PlayArgs {
+    /// Engine of the window.
+    #[arg(long = "engine", value_enum, default_value = "threaded", value_name = "ENGINE")]
+    play_engine: EngineArg,
+    /// How often the window samples the field and redraws (e.g. 15ms, 0.02s).
+    #[arg(long, value_name = "T", default_value = "15ms", value_parser = frames::parse_interval)]
+    sample_every: f64,
+    /// Close the window by itself after this many seconds.
+    #[arg(long, value_name = "S", value_parser = positive_seconds)]
+    exit_after: Option<f64>,
+    /// When the window closes, write what happened (JSON: frames, balls added, the key ball's
+    /// start and end, ...) here.
+    #[arg(long = "report", value_name = "F.json")]
+    play_report: Option<PathBuf>,
+    /// Window size in pixels, WIDTHxHEIGHT [default: the field at 10 px/m and the panel].
+    #[arg(long = "size", value_name = "WxH", value_parser = frames::parse_size)]
+    window_size: Option<(u32, u32)>,
+    /// Start with the panel hidden (Tab shows it).
+    #[arg(long)]
+    no_panel: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -28,6 +58,14 @@ enum Command {
     Headless(HeadlessArgs),
     /// Measure each integrator's error against exact answers and the time it costs.
     Accuracy(AccuracyArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum EngineArg {
+    /// The deterministic fixed-step engine.
+    Lockstep,
+    /// One thread per ball; --duration is wall-clock seconds.
+    Threaded,
 }
 
 #[derive(Args, Debug)]
@@ -41,14 +79,6 @@ struct AccuracyArgs {
     /// Measure the threaded runtime instead (ball cycle and ball count; writes threaded.md).
     #[arg(long)]
     threaded: bool,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum EngineArg {
-    /// The deterministic fixed-step engine.
-    Lockstep,
-    /// One thread per ball; --duration is wall-clock seconds.
-    Threaded,
 }
 
 #[derive(Args, Debug)]
@@ -76,6 +106,16 @@ struct HeadlessArgs {
     /// Write the run report (JSON) here.
     #[arg(long, value_name = "F.json")]
     report: Option<PathBuf>,
+    /// Also write PNG frames, drawn offscreen, into this directory (no window or display needed).
+    #[arg(long, value_name = "DIR")]
+    frames: Option<PathBuf>,
+    /// Time between frames: simulated time for lockstep, wall-clock time for threaded
+    /// (e.g. 15ms, 0.5s; a bare number is seconds).
+    #[arg(long, value_name = "T", default_value = "15ms", value_parser = frames::parse_interval, requires = "frames")]
+    frame_every: f64,
+    /// Frame size in pixels, WIDTHxHEIGHT [default: the field at 10 px/m].
+    #[arg(long, value_name = "WxH", value_parser = frames::parse_size, requires = "frames")]
+    size: Option<(u32, u32)>,
     /// Print nothing but errors.
     #[arg(long, short)]
     quiet: bool,
@@ -123,19 +163,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let scene = scenes::resolve(&cli.scene)?;
     match cli.command {
         None => {
-            // Until the window lands, playing means a 10 s headless run with a summary.
-            let options = HeadlessOptions {
-                scene_file: cli.scene.clone(),
-                length: RunLength::Duration(10.0),
-                dt: None,
-                integrator: None,
-                engine: Engine::Lockstep,
-                state_in: None,
-                state_out: None,
+            let p = cli.play;
+            let options = AppOptions {
+                scene_name: cli.scene.clone(),
+                scene,
+                engine: match p.play_engine {
+                    EngineArg::Lockstep => EngineKind::Lockstep,
+                    EngineArg::Threaded => EngineKind::Threaded,
+                },
+                sample_every: Duration::from_secs_f64(p.sample_every),
+                exit_after: p.exit_after.map(Duration::from_secs_f64),
+                report: p.play_report,
+                size: p.window_size,
+                panel: !p.no_panel,
             };
-            let report = headless::run(&scene, &options)?;
-            println!("(no window yet: ran the scene headless for 10 simulated seconds)");
-            print!("{}", report.summary());
+            app::run(options)?;
         }
         Some(Command::Headless(args)) => {
             let length = match (args.duration, args.steps) {
@@ -163,7 +205,26 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 state_in: args.state_in,
                 state_out: args.state_out,
             };
-            let report = headless::run(&scene, &options)?;
+            let report = match &args.frames {
+                None => headless::run(&scene, &options)?,
+                Some(dir) => {
+                    let frame_options = FrameOptions { dir: dir.clone(), every: args.frame_every, size: args.size };
+                    let (report, written) = frames::run_with_frames(&scene, &options, &frame_options)?;
+                    if !args.quiet {
+                        println!(
+                            "frames       {} of {}x{} in {} ({} skipped), {:.1} ms each to draw and read back on {}",
+                            written.frames,
+                            written.width,
+                            written.height,
+                            dir.display(),
+                            written.skipped,
+                            written.render_seconds * 1e3,
+                            written.adapter
+                        );
+                    }
+                    report
+                }
+            };
             if let Some(path) = &args.report {
                 let json = serde_json::to_string_pretty(&report)?;
                 std::fs::write(path, json + "\n")

@@ -1,0 +1,63 @@
+//! Drawing a snapshot of the field with wgpu, into a window's surface or an offscreen texture
+//! (DESIGN.md, "render/"). One path, [`Renderer::render`], serves both: they differ only in where
+//! the `TextureView` comes from. The renderer reads its [`FrameSnapshot`]; it never changes the
+//! simulation.
+//!
+//! Balls are discs drawn by `shaders/balls.wgsl` (a signed distance with a one-pixel anti-aliased
+//! edge), the field, the walls and the overlays thick segments from `shaders/segments.wgsl`.
+
+mod gpu;
+mod layout;
+mod offscreen;
+mod renderer;
+mod snapshot;
+
+pub use gpu::{Gpu, instance_descriptor};
+pub use layout::{Layout, MARGIN_PX, PIXELS_PER_METRE};
+pub use offscreen::{OFFSCREEN_FORMAT, Offscreen};
+pub use renderer::{BallPath, Renderer};
+pub use snapshot::{BallSprite, BallStyle, FrameSnapshot, Segment, ball_colour, palette, rgba, with_style};
+
+/// Why drawing failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(
+        "no GPU adapter found ({0}); on a machine without a GPU install Mesa's drivers (libegl-mesa0 and libgl1-mesa-dri, or mesa-vulkan-drivers)"
+    )]
+    NoAdapter(String),
+    #[error("cannot open the GPU device: {0}")]
+    Device(String),
+    #[error("a {width}×{height} target is not possible: each side must be from 1 to {max} pixels")]
+    Size { width: u32, height: u32, max: u32 },
+    #[error("reading the frame back failed: {0}")]
+    Readback(String),
+}
+
+/// Draws one frame offscreen and returns its pixels: the whole path, for tests and tools.
+pub struct OffscreenRenderer {
+    pub gpu: Gpu,
+    pub renderer: Renderer,
+    pub target: Offscreen,
+}
+
+impl OffscreenRenderer {
+    /// A headless device, a renderer and a `width × height` target.
+    pub fn new(width: u32, height: u32) -> Result<OffscreenRenderer, RenderError> {
+        let gpu = Gpu::headless()?;
+        let target = Offscreen::new(&gpu.device, width, height)?;
+        let renderer = Renderer::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT);
+        Ok(OffscreenRenderer { gpu, renderer, target })
+    }
+
+    /// Renders `snapshot` and waits for the GPU (no readback).
+    pub fn render(&mut self, snapshot: &FrameSnapshot) -> Result<(), RenderError> {
+        self.renderer.render(self.target.view(), snapshot);
+        Offscreen::wait(&self.gpu.device)
+    }
+
+    /// Renders `snapshot` and reads the pixels back.
+    pub fn render_image(&mut self, snapshot: &FrameSnapshot) -> Result<image::RgbaImage, RenderError> {
+        self.renderer.render(self.target.view(), snapshot);
+        self.target.read(&self.gpu.device, &self.gpu.queue)
+    }
+}

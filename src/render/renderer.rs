@@ -1,0 +1,373 @@
+//! The renderer: one `render(view, snapshot)` path for the window and the offscreen target.
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use super::snapshot::{BallSprite, FrameSnapshot, Segment, palette};
+
+/// How the balls reach the vertex shader. Both draw the same pixels (see `shaders/balls.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BallPath {
+    /// One instance per ball, a 4-vertex triangle strip each.
+    Instanced,
+    /// One non-instanced indexed draw, every ball's data repeated on its 4 vertices.
+    ///
+    /// Mesa's CPU drivers run an instanced draw instance by instance, each with its own small
+    /// vertex batch and setup, about 2 µs apiece; one large draw runs the vertex shader over
+    /// all the vertices in wide SIMD batches instead. The price is 4× the upload (64 bytes a
+    /// ball), negligible next to that.
+    Expanded,
+    /// One non-instanced draw of one triangle (3 vertices) per ball, the equilateral triangle
+    /// around the disc: half the triangles of a quad, about 30% more pixels.
+    Triangles,
+}
+
+/// The uniform both shaders read (see `struct Globals` in them).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Globals {
+    scale: f32,
+    srgb_target: u32,
+    origin: [f32; 2],
+    target: [f32; 2],
+    _pad: [f32; 2],
+}
+
+/// A growable GPU vertex (or index) buffer.
+struct GrowBuffer {
+    buffer: wgpu::Buffer,
+    capacity: u64,
+    usage: wgpu::BufferUsages,
+    label: &'static str,
+}
+
+impl GrowBuffer {
+    fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages, capacity: u64) -> Self {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: capacity,
+            usage,
+            mapped_at_creation: false,
+        });
+        GrowBuffer { buffer, capacity, usage, label }
+    }
+
+    /// Writes `data` at the start, growing (to the next power of two) if it does not fit.
+    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[u8]) {
+        let need = data.len() as u64;
+        if need > self.capacity {
+            self.capacity = need.next_power_of_two();
+            self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(self.label),
+                size: self.capacity,
+                usage: self.usage,
+                mapped_at_creation: false,
+            });
+        }
+        if need > 0 {
+            queue.write_buffer(&self.buffer, 0, data);
+        }
+    }
+}
+
+/// Draws a [`FrameSnapshot`]: the field, its walls, the balls, then the overlays.
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    format: wgpu::TextureFormat,
+    path: BallPath,
+    globals: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    balls_strip: wgpu::RenderPipeline,
+    balls_list: wgpu::RenderPipeline,
+    balls_triangles: wgpu::RenderPipeline,
+    segments: wgpu::RenderPipeline,
+    background: wgpu::RenderPipeline,
+    ball_buffer: GrowBuffer,
+    index_buffer: GrowBuffer,
+    indexed_balls: u32,
+    segment_buffer: GrowBuffer,
+    // Scratch, kept between frames.
+    expanded: Vec<BallSprite>,
+    segment_scratch: Vec<Segment>,
+}
+
+const BALL_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
+const SEGMENT_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x2, 2 => Uint32];
+
+impl Renderer {
+    /// Pipelines for targets of `format` (the surface's, or the offscreen texture's).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat) -> Renderer {
+        let globals = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("globals"),
+            contents: bytemuck::bytes_of(&Globals::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("globals"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("globals"),
+            layout: &bind_group_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("ballfield"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        let balls_shader = device.create_shader_module(wgpu::include_wgsl!("../../shaders/balls.wgsl"));
+        let segments_shader = device.create_shader_module(wgpu::include_wgsl!("../../shaders/segments.wgsl"));
+        let pipeline_at = |label: &str,
+                           entry: &str,
+                           shader: &wgpu::ShaderModule,
+                           buffer: wgpu::VertexBufferLayout<'_>,
+                           topology: wgpu::PrimitiveTopology,
+                           blend: Option<wgpu::BlendState>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: shader,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(buffer)],
+                },
+                primitive: wgpu::PrimitiveState { topology, cull_mode: None, ..Default::default() },
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: shader,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let pipeline = |label: &str,
+                        shader: &wgpu::ShaderModule,
+                        buffer: wgpu::VertexBufferLayout<'_>,
+                        topology: wgpu::PrimitiveTopology,
+                        blend: Option<wgpu::BlendState>| {
+            pipeline_at(label, "vs_main", shader, buffer, topology, blend)
+        };
+        let ball_layout = |step_mode| wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<BallSprite>() as u64,
+            step_mode,
+            attributes: &BALL_ATTRIBUTES,
+        };
+        let balls_strip = pipeline(
+            "balls (instanced)",
+            &balls_shader,
+            ball_layout(wgpu::VertexStepMode::Instance),
+            wgpu::PrimitiveTopology::TriangleStrip,
+            Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+        );
+        let balls_list = pipeline(
+            "balls (expanded)",
+            &balls_shader,
+            ball_layout(wgpu::VertexStepMode::Vertex),
+            wgpu::PrimitiveTopology::TriangleList,
+            Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+        );
+        let balls_triangles = pipeline_at(
+            "balls (triangles)",
+            "vs_triangle",
+            &balls_shader,
+            ball_layout(wgpu::VertexStepMode::Vertex),
+            wgpu::PrimitiveTopology::TriangleList,
+            Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+        );
+        let segment_layout = || wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Segment>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &SEGMENT_ATTRIBUTES,
+        };
+        let segments = pipeline(
+            "segments",
+            &segments_shader,
+            segment_layout(),
+            wgpu::PrimitiveTopology::TriangleStrip,
+            Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+        );
+        // Opaque: no blending, no read of the target.
+        let background =
+            pipeline("background", &segments_shader, segment_layout(), wgpu::PrimitiveTopology::TriangleStrip, None);
+        let vertex = wgpu::BufferUsages::VERTEX;
+        Renderer {
+            device: device.clone(),
+            queue: queue.clone(),
+            format,
+            path: BallPath::Expanded,
+            globals,
+            bind_group,
+            balls_strip,
+            balls_list,
+            balls_triangles,
+            segments,
+            background,
+            ball_buffer: GrowBuffer::new(device, "balls", vertex, 64 * 1024),
+            index_buffer: GrowBuffer::new(device, "ball indices", wgpu::BufferUsages::INDEX, 4),
+            indexed_balls: 0,
+            segment_buffer: GrowBuffer::new(device, "segments", vertex, 16 * 1024),
+            expanded: Vec::new(),
+            segment_scratch: Vec::new(),
+        }
+    }
+
+    /// The format the pipelines were built for.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    pub fn ball_path(&self) -> BallPath {
+        self.path
+    }
+
+    /// Chooses how balls are fed to the GPU (for benches; the default is the faster one).
+    pub fn set_ball_path(&mut self, path: BallPath) {
+        self.path = path;
+    }
+
+    /// Draws `snapshot` into `view` (cleared first) and submits the work.
+    pub fn render(&mut self, view: &wgpu::TextureView, snapshot: &FrameSnapshot) {
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ballfield frame") });
+        self.encode(&mut encoder, view, snapshot);
+        self.queue.submit([encoder.finish()]);
+    }
+
+    /// Records the drawing of `snapshot` into `view` (cleared first) on `encoder`, for callers
+    /// that draw more (the window's panel) before submitting.
+    pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, snapshot: &FrameSnapshot) {
+        let size = view.texture().size();
+        let layout = snapshot.layout(size.width, size.height);
+        let globals = Globals {
+            scale: layout.scale as f32,
+            srgb_target: self.format.is_srgb() as u32,
+            origin: layout.origin_from_bottom(),
+            target: [size.width as f32, size.height as f32],
+            _pad: [0.0; 2],
+        };
+        self.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+
+        // The target is cleared to the field's colour; then the walls and the letterbox are drawn
+        // as opaque bands reaching far outside the field (clipped), so no pixel of the field
+        // itself is painted twice before the balls: on a CPU rasteriser every covered pixel
+        // costs. Each band is a segment with a huge metric half width; its pixel part moves its
+        // inner end: 0 for the walls (they start at the field's edge), -WALL_PX for the
+        // letterbox (it starts WALL_PX further out).
+        let (w, h) = (snapshot.field.width as f32, snapshot.field.height as f32);
+        self.segment_scratch.clear();
+        for (px, colour) in [(0.0, palette::WALL), (-WALL_PX, palette::OUTSIDE_PACKED)] {
+            let band =
+                |a: [f32; 2], b: [f32; 2]| Segment { ends: [a[0], a[1], b[0], b[1]], half_width: [FAR, px], colour };
+            self.segment_scratch.extend([
+                band([-FAR, 0.5 * h], [0.0, 0.5 * h]),
+                band([w, 0.5 * h], [w + FAR, 0.5 * h]),
+                band([0.5 * w, -FAR], [0.5 * w, 0.0]),
+                band([0.5 * w, h], [0.5 * w, h + FAR]),
+            ]);
+        }
+        let background = self.segment_scratch.len() as u32;
+        self.segment_scratch.extend_from_slice(&snapshot.overlays);
+        self.segment_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.segment_scratch));
+
+        let n = snapshot.balls.len() as u32;
+        match self.path {
+            BallPath::Instanced => {
+                self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&snapshot.balls));
+            }
+            BallPath::Expanded => {
+                self.expanded.clear();
+                self.expanded.extend(snapshot.balls.iter().flat_map(|b| [*b; 4]));
+                self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
+                if n > self.indexed_balls {
+                    // Indices only change when the count grows past what they cover.
+                    let cover = n.next_power_of_two();
+                    let indices: Vec<u32> = (0..cover).flat_map(|b| [0, 1, 2, 2, 1, 3].map(|k| 4 * b + k)).collect();
+                    self.index_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&indices));
+                    self.indexed_balls = cover;
+                }
+            }
+            BallPath::Triangles => {
+                self.expanded.clear();
+                self.expanded.extend(snapshot.balls.iter().flat_map(|b| [*b; 3]));
+                self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
+            }
+        }
+
+        let [r, g, b] = palette::FIELD_RGB;
+        let clear = if self.format.is_srgb() {
+            wgpu::Color { r: srgb_to_linear(r), g: srgb_to_linear(g), b: srgb_to_linear(b), a: 1.0 }
+        } else {
+            wgpu::Color { r, g, b, a: 1.0 }
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("ballfield"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&self.background);
+        pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
+        pass.draw(0..4, 0..background);
+        if n > 0 {
+            match self.path {
+                BallPath::Instanced => {
+                    pass.set_pipeline(&self.balls_strip);
+                    pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
+                    pass.draw(0..4, 0..n);
+                }
+                BallPath::Expanded => {
+                    pass.set_pipeline(&self.balls_list);
+                    pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
+                    pass.set_index_buffer(self.index_buffer.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..6 * n, 0, 0..1);
+                }
+                BallPath::Triangles => {
+                    pass.set_pipeline(&self.balls_triangles);
+                    pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
+                    pass.draw(0..3 * n, 0..1);
+                }
+            }
+        }
+        let overlays = snapshot.overlays.len() as u32;
+        if overlays > 0 {
+            pass.set_pipeline(&self.segments);
+            pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
+            pass.draw(0..4, background..background + overlays);
+        }
+    }
+}
+
+/// Width of the walls, pixels.
+const WALL_PX: f32 = 4.0;
+/// How far (m) the background bands reach out of the field: beyond any target.
+const FAR: f32 = 1.0e4;
+
+fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
