@@ -254,3 +254,27 @@ fn pause_stops_time_and_resume_continues() {
     let c: Vec<_> = rt.snapshot().iter().map(|r| r.ball.position).collect();
     assert_ne!(a, c);
 }
+
+/// Hard case 7, time spike: a ball thread stalled for 0.5 s (its next dt is 0.5 s) sub-steps it:
+/// it does not tunnel through the floor and its energy does not jump.
+#[test]
+fn a_stalled_ball_sub_steps_its_long_dt() {
+    let _serial = serial();
+    let s = scene(
+        "name = \"stall\"\n[simulation]\nintegrator = \"leapfrog\"\n[effects]\ngravity = {}\n\
+         [[balls]]\nposition = [35.0, 3.0]\nvelocity = [0.0, -20.0]\nmass = 1.0\ndiameter = 1.0\n",
+    );
+    let energy = |b: &Ball| 0.5 * b.mass * b.velocity.length_squared() + b.mass * 9.81 * b.position.y;
+    let start = energy(&s.balls[0]);
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    let id = rt.ball_ids()[0];
+    // At 20 m/s the ball is 2.5 m from the floor: the 0.5 s stall spans the bounce.
+    rt.inject_stall(id, Duration::from_millis(500)).unwrap();
+    std::thread::sleep(Duration::from_millis(800));
+    settle(&rt);
+    let b = rt.snapshot()[0].ball;
+    check_inside(&s.field, &[b]);
+    let end = energy(&b);
+    assert!(rt.wall_impulses().bottom > 0.0, "it bounced");
+    assert!((end - start).abs() < 1e-3 * start, "energy {start} -> {end}");
+}

@@ -167,6 +167,7 @@ fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handl
         Message::SetIntegrator(integrator) => params.integrator = integrator,
         Message::Throw(velocity) => state.ball.velocity = velocity,
         Message::Stop => return Handled::Stop,
+        Message::Stall(d) => std::thread::sleep(d),
         Message::Panic => panic!("ball {} was asked to panic (test hook)", state.ball.id),
     }
     Handled::Continue

@@ -21,6 +21,10 @@ pub enum Message {
     Throw(DVec2),
     /// Finish the current cycle and exit.
     Stop,
+    /// Test hook: the ball's thread sleeps this long inside its cycle, as if the machine had
+    /// stalled it; its next dt is then that long (and is split into sub-steps).
+    #[doc(hidden)]
+    Stall(std::time::Duration),
     /// Test hook: panic inside the ball's thread.
     #[doc(hidden)]
     Panic,

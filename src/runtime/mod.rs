@@ -479,6 +479,15 @@ impl Runtime {
         Ok(())
     }
 
+    /// Test hook: stalls a ball's thread for `duration` (see [`Message::Stall`]).
+    #[doc(hidden)]
+    pub fn inject_stall(&self, id: BallId, duration: Duration) -> Result<(), RuntimeError> {
+        let reg = self.registry.lock();
+        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
+        let _ = h.inbox.send(Message::Stall(duration));
+        Ok(())
+    }
+
     /// Stops every thread and joins it: the monitor first (so no message is sent to a ball that
     /// is stopping), then all balls are told to stop at once and joined.
     pub fn shutdown(&self) -> ShutdownReport {
