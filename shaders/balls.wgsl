@@ -29,9 +29,10 @@ struct VertexOut {
     @builtin(position) position: vec4<f32>,
     // offset from the centre, pixels
     @location(0) local: vec2<f32>,
-    @location(1) @interpolate(flat) radius_px: f32,
-    @location(2) @interpolate(flat) colour: vec4<f32>,
-    @location(3) @interpolate(flat) style: u32,
+    // RGB (in the target's encoding) and the radius in pixels. Few interpolants: a CPU
+    // rasteriser sets up every one of them for every triangle.
+    @location(1) @interpolate(flat) colour_radius: vec4<f32>,
+    @location(2) @interpolate(flat) style: u32,
 };
 
 fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
@@ -72,27 +73,31 @@ fn ball_vertex(in: BallIn, corner: vec2<f32>) -> VertexOut {
     var out: VertexOut;
     out.position = vec4<f32>(pixel.x / globals.target_size.x * 2.0 - 1.0, 1.0 - pixel.y / globals.target_size.y * 2.0, 0.0, 1.0);
     out.local = corner * half;
-    out.radius_px = radius_px;
     let unpacked = unpack4x8unorm(in.colour);
     var rgb = unpacked.rgb;
     if globals.srgb_target != 0u {
         rgb = srgb_to_linear(rgb);
     }
-    out.colour = vec4<f32>(rgb, 1.0);
+    out.colour_radius = vec4<f32>(rgb, radius_px);
     out.style = in.colour >> 24u;
     return out;
 }
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let radius_px = in.colour_radius.w;
     let d = length(in.local);
     // coverage of the pixel by the disc: 1 inside, 0 outside, linear across one pixel at the edge
-    let coverage = clamp(in.radius_px - d + 0.5, 0.0, 1.0);
-    var rgb = in.colour.rgb;
+    let coverage = clamp(radius_px - d + 0.5, 0.0, 1.0);
+    if coverage <= 0.0 {
+        // outside the disc (the quad's or triangle's corners): no blend, no write
+        discard;
+    }
+    var rgb = in.colour_radius.rgb;
     if in.style != 0u {
         // a white ring just inside the edge (the key ball; or a highlighted, grabbed ball)
-        let width = max(1.5, in.radius_px * 0.22);
-        let inner = in.radius_px - width;
+        let width = max(1.5, radius_px * 0.22);
+        let inner = radius_px - width;
         let ring = clamp(d - inner + 0.5, 0.0, 1.0);
         var ring_colour = vec3<f32>(1.0, 1.0, 1.0);
         if in.style == 2u {
@@ -101,7 +106,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         rgb = mix(rgb, ring_colour, ring);
     } else {
         // a slightly darker rim so touching balls stay apart
-        let rim = clamp(d - (in.radius_px - 1.5) + 0.5, 0.0, 1.0);
+        let rim = clamp(d - (radius_px - 1.5) + 0.5, 0.0, 1.0);
         rgb = rgb * (1.0 - 0.35 * rim);
     }
     // premultiplied alpha

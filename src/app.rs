@@ -26,7 +26,8 @@ pub use sim::EngineKind;
 
 use crate::physics::{Attraction, Ball, BallId, BallKind, Bodies, Effects, measure};
 use crate::render::{
-    BallSprite, BallStyle, FrameSnapshot, Gpu, Layout, Renderer, ball_colour, instance_descriptor, palette, with_style,
+    BallSprite, BallStyle, FrameSnapshot, Gpu, Layout, Renderer, ball_colour, instance_descriptor, palette,
+    raise_render_priority, with_style,
 };
 use crate::scene::Scene;
 use crate::scenes;
@@ -236,6 +237,7 @@ impl App {
             .with_inner_size(winit::dpi::PhysicalSize::new(w, h))
             .with_min_inner_size(winit::dpi::PhysicalSize::new(200, 150));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| e.to_string())?);
+        raise_render_priority();
         let mut desc = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(event_loop.owned_display_handle()));
         desc.backends = instance_descriptor().backends;
         let instance = wgpu::Instance::new(desc.with_env());

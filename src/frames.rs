@@ -106,11 +106,16 @@ impl Recorder {
     fn new(scene: &Scene, frames: &FrameOptions) -> Result<Recorder, FramesError> {
         let (width, height) = frames.size.unwrap_or_else(|| Layout::default_size(&scene.field));
         std::fs::create_dir_all(&frames.dir).map_err(|cause| FramesError::Dir { dir: frames.dir.clone(), cause })?;
-        let out = OffscreenRenderer::new(width, height)?;
+        let mut out = OffscreenRenderer::new(width, height)?;
         let adapter = out.gpu.describe();
+        let mut snapshot = FrameSnapshot::new(scene.field);
+        // One frame and a readback before the run: the driver compiles its shaders on first use
+        // (hundreds of ms on a CPU adapter), which must not fall into a timed, threaded run.
+        snapshot.fill_from_bodies(scene.field, &Bodies::from_balls(&scene.balls));
+        out.render_image(&snapshot)?;
         Ok(Recorder {
             out,
-            snapshot: FrameSnapshot::new(scene.field),
+            snapshot,
             dir: frames.dir.clone(),
             written: FramesWritten { width, height, adapter, ..Default::default() },
             render_time: Duration::ZERO,

@@ -12,7 +12,7 @@ mod offscreen;
 mod renderer;
 mod snapshot;
 
-pub use gpu::{Gpu, instance_descriptor};
+pub use gpu::{Gpu, instance_descriptor, raise_render_priority};
 pub use layout::{Layout, MARGIN_PX, PIXELS_PER_METRE};
 pub use offscreen::{OFFSCREEN_FORMAT, Offscreen};
 pub use renderer::{BallPath, Renderer};

