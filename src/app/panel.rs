@@ -70,6 +70,7 @@ pub struct Readouts {
     pub engine: Option<EngineKind>,
     pub balls: usize,
     pub frame_rate: f64,
+    /// Median time to draw a frame over the last 60, ms.
     pub frame_ms: f64,
     pub sim_rate: f64,
     pub paused: bool,
