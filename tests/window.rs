@@ -15,6 +15,16 @@ struct Killed(Child);
 
 impl Drop for Killed {
     fn drop(&mut self) {
+        // SIGTERM first: Xvfb then removes its lock file and socket, so the next run's
+        // `-displayfd` starts from a clean slate.
+        let _ = Command::new("kill").arg(self.0.id().to_string()).status();
+        let end = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < end {
+            if let Ok(Some(_)) = self.0.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
@@ -34,7 +44,9 @@ fn skip_or_fail(why: &str) {
 /// Starts Xvfb on a free display number it picks itself (`-displayfd`) and returns `:N`.
 fn start_xvfb() -> (Killed, String) {
     let mut child = Command::new("Xvfb")
-        .args(["-displayfd", "1", "-screen", "0", "1280x800x24", "-nolisten", "tcp"])
+        // -noreset: without it the server resets whenever its last client leaves (our readiness
+        // probe), and a client connecting meanwhile is refused.
+        .args(["-displayfd", "1", "-screen", "0", "1280x800x24", "-nolisten", "tcp", "-noreset"])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -42,7 +54,24 @@ fn start_xvfb() -> (Killed, String) {
     let mut line = String::new();
     BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).expect("Xvfb prints its display");
     let display = format!(":{}", line.trim());
-    (Killed(child), display)
+    let xvfb = Killed(child);
+    // Make sure the server takes connections before anything else tries.
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        let ok = Command::new("xdotool")
+            .arg("getmouselocation")
+            .env("DISPLAY", &display)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if ok {
+            break;
+        }
+        assert!(Instant::now() < end, "Xvfb on {display} takes no connections");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    (xvfb, display)
 }
 
 fn xdotool(display: &str, args: &[&str]) -> String {
@@ -109,15 +138,35 @@ fn arrow_keys_pull_the_key_ball_and_a_adds_a_ball() {
         .expect("the binary starts");
     let mut app = Killed(app);
 
-    // Wait for the window to be mapped, then give it the keyboard.
-    let wid = xdotool(&display, &["search", "--sync", "--onlyvisible", "--name", "ballfield"]);
-    let wid = wid.lines().next().expect("a window id").trim().to_string();
+    // Wait for the window to be mapped (polling, so a binary that dies fails the test instead of
+    // hanging it), then give it the keyboard.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let wid = loop {
+        let out = Command::new("xdotool")
+            .args(["search", "--onlyvisible", "--name", "ballfield"])
+            .env("DISPLAY", &display)
+            .output()
+            .expect("xdotool runs");
+        if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
+            break id.trim().to_string();
+        }
+        if let Some(status) = app.0.try_wait().unwrap() {
+            let mut stderr = String::new();
+            if let Some(mut e) = app.0.stderr.take() {
+                use std::io::Read;
+                let _ = e.read_to_string(&mut stderr);
+            }
+            panic!("ballfield exited ({status}) before its window appeared: {stderr}");
+        }
+        assert!(Instant::now() < deadline, "no ballfield window after 60 s");
+        std::thread::sleep(Duration::from_millis(100));
+    };
     xdotool(&display, &["windowfocus", "--sync", &wid]);
     // winit may report a synthetic key press right after focusing; the app ignores those, and
     // the pause lets it settle.
-    std::thread::sleep(Duration::from_millis(500));
+    std::thread::sleep(Duration::from_millis(800));
     xdotool(&display, &["keydown", "Right"]);
-    std::thread::sleep(Duration::from_millis(600));
+    std::thread::sleep(Duration::from_millis(1000));
     xdotool(&display, &["keyup", "Right"]);
     xdotool(&display, &["key", "a"]);
 
@@ -140,8 +189,9 @@ fn arrow_keys_pull_the_key_ball_and_a_adds_a_ball() {
     let x = |k: &str| json[k][0].as_f64().unwrap_or_else(|| panic!("{k} missing in {json}"));
     let y = |k: &str| json[k][1].as_f64().unwrap();
     let (dx, dy) = (x("key_end") - x("key_start"), y("key_end") - y("key_start"));
-    // 200 N on 50 kg for 0.6 s: 4 m/s² → 2.4 m/s and 0.7 m while held, then coasting a few
-    // seconds. Anything clearly to the right and mostly horizontal is right.
+    // 200 N on 50 kg for 1 s: 4 m/s² → 4 m/s and 2 m while held, then coasting a few seconds
+    // (about 25 m at the end, far from the right wall at 70 m). Anything clearly to the right and
+    // mostly horizontal is right.
     assert!(dx > 0.5, "the key ball moved {dx} m in x (expected to the right)");
     assert!(dx.abs() > dy.abs(), "the key ball moved ({dx}, {dy}): not mostly sideways");
     assert_eq!(json["balls_added"].as_u64(), Some(1), "{json}");
