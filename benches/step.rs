@@ -23,6 +23,11 @@
 //! `Lockstep::run` would run it. The measured state is therefore the same on every machine and
 //! every run, whatever number of iterations criterion chooses.
 //!
+//! Clock. Criterion's times are wall-clock by default. On a shared machine, where other programs
+//! take the cores, run with `BALLFIELD_BENCH_CLOCK=thread-cpu` to time the benchmarking thread's
+//! CPU time instead (see [`Clock`]); on an idle machine the two agree, as the engine is
+//! single-threaded.
+//!
 //! Attraction is computed with the real G (`NEWTON_G`): its cost does not depend on G, and with
 //! G that small it moves nothing measurable in 2 s, so scenes with attraction are warmed up with
 //! attraction off and have it turned on just before timing (warming the 10,000-ball scene with
@@ -35,6 +40,7 @@ use std::time::{Duration, Instant};
 
 use ballfield::Lockstep;
 use ballfield::physics::{Attraction, Ball, BallId, BallKind, Collisions, Drag, Effects, Field, Gravity, Integrator};
+use cpu_time::ThreadTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
 
@@ -159,19 +165,59 @@ fn warmed_engine(n: usize, effects: Effects, integrator: Integrator) -> Lockstep
     engine
 }
 
+/// What [`time_steps`] measures with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Clock {
+    /// Wall-clock time (`Instant`), criterion's usual measure: what a user waits. The default.
+    Wall,
+    /// CPU time of the benchmarking thread (`CLOCK_THREAD_CPUTIME_ID`): excludes the time the
+    /// thread is descheduled while other programs hold the cores, though not their effect on the
+    /// caches and memory bandwidth (nor, in a VM, on the host's cores), so on a loaded machine it
+    /// is still an upper bound. The engine is single-threaded, so on an idle machine the two
+    /// clocks agree.
+    ThreadCpu,
+}
+
+impl Clock {
+    /// `BALLFIELD_BENCH_CLOCK=thread-cpu` selects [`Clock::ThreadCpu`]; unset or `wall` selects
+    /// [`Clock::Wall`].
+    fn from_env() -> Clock {
+        match std::env::var("BALLFIELD_BENCH_CLOCK").as_deref() {
+            Err(_) | Ok("wall") => Clock::Wall,
+            Ok("thread-cpu") => Clock::ThreadCpu,
+            Ok(other) => panic!("BALLFIELD_BENCH_CLOCK={other}: expected `wall` or `thread-cpu`"),
+        }
+    }
+}
+
+/// The timed loop: `n` steps.
+#[inline(always)]
+fn run_steps(engine: &mut Lockstep, n: u64) {
+    for _ in 0..n {
+        engine.step();
+    }
+}
+
 /// Times `iters` consecutive steps starting from a clone of `warm`, re-cloning it (untimed) every
 /// [`MAX_RUN`] steps, so every timed step is one of the [`MAX_RUN`] steps after the warm-up.
-fn time_steps(warm: &Lockstep, iters: u64) -> Duration {
+fn time_steps(warm: &Lockstep, iters: u64, clock: Clock) -> Duration {
     let mut total = Duration::ZERO;
     let mut left = iters;
     while left > 0 {
         let run = left.min(MAX_RUN);
         let mut engine = warm.clone();
-        let start = Instant::now();
-        for _ in 0..run {
-            engine.step();
-        }
-        total += start.elapsed();
+        total += match clock {
+            Clock::Wall => {
+                let start = Instant::now();
+                run_steps(&mut engine, run);
+                start.elapsed()
+            }
+            Clock::ThreadCpu => {
+                let start = ThreadTime::now();
+                run_steps(&mut engine, run);
+                start.elapsed()
+            }
+        };
         black_box(&engine);
         left -= run;
     }
@@ -218,6 +264,7 @@ fn describe(name: &str, warm: &Lockstep) {
 }
 
 fn bench_effects(c: &mut Criterion) {
+    let clock = Clock::from_env();
     let mut group = c.benchmark_group("effects");
     group.warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(3));
     let only = |f: fn(&mut Effects)| {
@@ -245,7 +292,7 @@ fn bench_effects(c: &mut Criterion) {
                 }
                 warm
             });
-            b.iter_custom(|iters| time_steps(warm, iters))
+            b.iter_custom(|iters| time_steps(warm, iters, clock))
         });
     }
     // All effects at 10,000 balls: the O(n²) attraction is ≈ 50 M pairs per step (a tenth of a
@@ -260,12 +307,13 @@ fn bench_effects(c: &mut Criterion) {
     group.throughput(Throughput::Elements(n as u64));
     group.bench_function(BenchmarkId::new("all", n), |b| {
         let warm = warm.get_or_init(|| warmed_engine(n, all_effects(), Integrator::SemiImplicitEuler));
-        b.iter_custom(|iters| time_steps(warm, iters))
+        b.iter_custom(|iters| time_steps(warm, iters, clock))
     });
     group.finish();
 }
 
 fn bench_target(c: &mut Criterion) {
+    let clock = Clock::from_env();
     // The target: 10,000 balls of 2 m, 1 kg covering 20 % of a 501.3 m × 313.3 m field
     // (157,080 m²; 31,416 m² of balls), gravity + quadratic drag + collisions (restitution 1,
     // walls too), dt = 1 ms, semi-implicit Euler, one thread; goal ≥ 2,000 steps/s, i.e.
@@ -290,12 +338,13 @@ fn bench_target(c: &mut Criterion) {
             describe("target", &warm);
             warm
         });
-        b.iter_custom(|iters| time_steps(warm, iters))
+        b.iter_custom(|iters| time_steps(warm, iters, clock))
     });
     group.finish();
 }
 
 fn bench_integrators(c: &mut Criterion) {
+    let clock = Clock::from_env();
     let n = 1_000;
     let mut group = c.benchmark_group("integrators");
     group.warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(3));
@@ -309,7 +358,7 @@ fn bench_integrators(c: &mut Criterion) {
                 describe(&format!("integrators/{integrator}/{n}"), &warm);
                 warm
             });
-            b.iter_custom(|iters| time_steps(warm, iters))
+            b.iter_custom(|iters| time_steps(warm, iters, clock))
         });
     }
     group.finish();
