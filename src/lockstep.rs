@@ -17,7 +17,8 @@ use serde::Serialize;
 
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BroadPhase, ContactBody, Diagnostics, Effects, Field, Forces, Integrator,
-    IntegratorScratch, PointForce, WallImpulses, contact_ball_ball, contact_ball_wall, integrate, measure,
+    IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, attraction_rate_squared,
+    contact_ball_ball, contact_ball_wall, drag_rate, integrate, measure,
 };
 use crate::scene::Scene;
 
@@ -90,6 +91,7 @@ pub struct Lockstep {
     scratch: IntegratorScratch,
     broad_phase: BroadPhase,
     pairs: Vec<(u32, u32)>,
+    adaptive_substeps: bool,
 }
 
 impl Lockstep {
@@ -123,6 +125,7 @@ impl Lockstep {
             scratch: IntegratorScratch::default(),
             broad_phase: BroadPhase::new(),
             pairs: Vec::new(),
+            adaptive_substeps: true,
         }
     }
 
@@ -170,6 +173,13 @@ impl Lockstep {
     pub fn set_effects(&mut self, effects: Effects) {
         self.effects = effects;
         self.forces = Forces::new(&effects);
+    }
+
+    /// Turns the automatic step splitting (fast balls, stiff drag, fast orbits; see
+    /// [`Lockstep::step`]) on or off. On by default; the accuracy report turns it off to measure
+    /// each integrator at exactly the step it was given.
+    pub fn set_adaptive_substeps(&mut self, on: bool) {
+        self.adaptive_substeps = on;
     }
 
     pub fn set_integrator(&mut self, integrator: Integrator) {
@@ -224,29 +234,69 @@ impl Lockstep {
     /// Advances one step of `dt`.
     pub fn step(&mut self) {
         // With collisions on, a ball may move at most MAX_TRAVEL of its radius per (sub-)step, so
-        // two approaching balls can never jump past each other between two contact checks: a
-        // step in which some ball is faster than that is split into equal sub-steps (at most
-        // MAX_SUBSTEPS). Slow fields pay one pass over the speeds.
-        let substeps = if self.effects.collisions.is_some() { self.substeps_needed() } else { 1 };
-        self.counters.substeps += substeps as u64;
-        let h = self.dt / substeps as f64;
-        for _ in 0..substeps {
+        // two approaching balls can never jump past each other between two contact checks; with
+        // drag on, drag may not be stiff for the step. A step that breaks either is split into
+        // equal sub-steps (at most MAX_SUBSTEPS). Ordinary fields pay one pass over the speeds.
+        // The split is re-judged before every sub-step, over the time left: a collision in the
+        // middle of a step can make a ball fast, or drag on a light ball stiff, at once.
+        let mut remaining = self.dt;
+        let mut taken = 0u32;
+        while remaining > 0.0 {
+            let n = if self.adaptive_substeps && taken < MAX_SUBSTEPS { self.substeps_needed(remaining) } else { 1 };
+            // For n = 1, h is exactly what is left and `remaining` becomes exactly zero.
+            let h = if n == 1 { remaining } else { remaining / n as f64 };
             self.substep(h);
+            remaining -= h;
+            taken += 1;
         }
+        self.counters.substeps += taken as u64;
         self.steps += 1;
         self.counters.steps += 1;
-        self.time = self.steps as f64 * self.dt;
+        // Summed, not steps·dt, so that changing dt mid-run does not rewrite the past.
+        self.time += self.dt;
     }
 
-    /// Sub-steps this step needs (see [`Lockstep::step`]).
-    fn substeps_needed(&self) -> u32 {
+    /// Sub-steps the next `span` seconds need: with collisions on, so that no ball travels more than
+    /// [`MAX_TRAVEL`] radii per sub-step (see [`Lockstep::step`]); with drag on, so that drag is
+    /// not stiff for the step (`drag_rate·h ≤ MAX_DRAG_STEP`: a light, large ball at high speed
+    /// would otherwise have its velocity overshoot through zero and blow up); with attraction on,
+    /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`).
+    fn substeps_needed(&self, span: f64) -> u32 {
         let b = &self.bodies;
-        let mut worst = 0.0f64; // largest |v|·dt / r
-        for i in 0..b.len() {
-            worst = worst.max(b.velocity[i].length_squared() / (b.radius[i] * b.radius[i]));
+        let mut need = 1.0f64;
+        if self.effects.collisions.is_some() {
+            let mut worst = 0.0f64; // largest (|v| / r)²
+            for i in 0..b.len() {
+                worst = worst.max(b.velocity[i].length_squared() / (b.radius[i] * b.radius[i]));
+            }
+            need = need.max(worst.sqrt() * span / MAX_TRAVEL);
         }
-        let travel = worst.sqrt() * self.dt / MAX_TRAVEL;
-        if travel <= 1.0 { 1 } else { (travel.ceil() as u32).min(MAX_SUBSTEPS) }
+        if let Some(drag) = &self.effects.drag {
+            let mut worst = 0.0f64;
+            for i in 0..b.len() {
+                worst = worst.max(drag_rate(b.velocity[i], b.diameter[i], b.mass[i], drag));
+            }
+            need = need.max(worst * span / MAX_DRAG_STEP);
+        }
+        if let Some(att) = &self.effects.attraction {
+            // O(n²), like the attraction pass itself.
+            let mut worst = 0.0f64;
+            for i in 0..b.len() {
+                for j in (i + 1)..b.len() {
+                    worst = worst.max(attraction_rate_squared(
+                        b.position[i],
+                        b.mass[i],
+                        b.radius[i],
+                        b.position[j],
+                        b.mass[j],
+                        b.radius[j],
+                        att,
+                    ));
+                }
+            }
+            need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
+        }
+        if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) }
     }
 
     fn substep(&mut self, h: f64) {

@@ -79,3 +79,27 @@ fn balls_slightly_outside_the_field_and_coincident_balls() {
     let r = vec![0.5; p.len()];
     check(&p, &r, 10.0, 10.0);
 }
+
+/// The grid re-plans when the set of radii changes in any way: a big ball removed from the middle
+/// and another added at the end (same count, same sum of radii) is still found.
+#[test]
+fn swapping_a_big_ball_keeps_the_layout_right() {
+    let mut grid = BroadPhase::new();
+    let mut p: Vec<DVec2> =
+        (0..40).map(|k| DVec2::new(2.0 + 2.0 * (k % 10) as f64, 2.0 + 2.0 * (k / 10) as f64)).collect();
+    let mut r = vec![0.5; 40];
+    r[5] = 15.0;
+    grid.update(&p, &r, 100.0, 100.0);
+    // Remove the big ball (index 5), add a big one at the end, next to ball 0.
+    p.remove(5);
+    r.remove(5);
+    p.push(DVec2::new(2.0, 2.0 + 15.3));
+    r.push(15.0);
+    check(&p, &r, 100.0, 100.0);
+    grid.update(&p, &r, 100.0, 100.0);
+    let mut found = BTreeSet::new();
+    grid.for_each_touching_pair(&p, &r, |i, j| {
+        found.insert((i.min(j), i.max(j)));
+    });
+    assert!(found.contains(&(0, 39)), "the new big ball touches ball 0: {found:?}");
+}

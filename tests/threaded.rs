@@ -225,7 +225,7 @@ fn a_panicking_ball_is_reported_and_the_others_keep_running() {
     let victim = rt.ball_ids()[3];
     let before = rt.ball_count();
     rt.inject_panic(victim).unwrap();
-    assert!(wait_until(Duration::from_secs(2), || rt.stats().threads_panicked == 1));
+    assert!(wait_until(Duration::from_secs(20), || rt.stats().threads_panicked == 1));
     let stats = rt.stats();
     assert_eq!(stats.panics.len(), 1, "{:?}", stats.panics);
     assert!(stats.panics[0].contains(&format!("ball {victim}")));

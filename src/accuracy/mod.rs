@@ -237,7 +237,8 @@ pub fn run(config: &Config, mut progress: impl FnMut(&str)) -> Result<Report, Ac
         for &integrator in &config.integrators {
             let first = rows.len();
             for &point in &sweep {
-                let template = Lockstep::from_parts(
+                // Each integrator is measured at exactly the step it is given: no automatic splitting.
+                let mut template = Lockstep::from_parts(
                     scene.field,
                     scene.effects,
                     integrator,
@@ -245,9 +246,11 @@ pub fn run(config: &Config, mut progress: impl FnMut(&str)) -> Result<Report, Ac
                     scene.max_balls,
                     &scene.balls,
                 );
+                template.set_adaptive_substeps(false);
                 let mut engine = template.clone();
                 let mut twin =
                     Lockstep::from_parts(scene.field, scene.effects, integrator, point.dt, scene.max_balls, &shifted);
+                twin.set_adaptive_substeps(false);
                 let measured = exact.errors(&mut engine, &mut twin, point)?;
                 let wall_seconds = time_run(&template, point.steps, config.min_timing);
                 for (&measure, m) in problem.measures().iter().zip(&measured) {

@@ -16,6 +16,7 @@ pub const BIG_BALL_FACTOR: f64 = 4.0;
 #[derive(Clone, Debug, Default)]
 pub struct BroadPhase {
     cell: f64,
+    inverse_cell: f64,
     cols: usize,
     rows: usize,
     /// Indices of the balls kept out of the grid.
@@ -27,8 +28,12 @@ pub struct BroadPhase {
     entries: Vec<u32>,
     /// `(x, y, radius)` of `entries[k]`, copied so the pair loops read memory in order.
     entry_shape: Vec<[f64; 3]>,
-    /// Layout key: the ball count and the diameters' sum the layout was chosen for.
-    layout_key: (usize, u64),
+    /// The radii the layout was chosen for (compared whole each step: a sum or a count would miss
+    /// a big ball removed and another added elsewhere).
+    layout_radii: Vec<f64>,
+    layout_field: (f64, f64),
+    /// Occupied cells of the last update, in row-major order (the pair search visits only these).
+    occupied: Vec<u32>,
 }
 
 impl BroadPhase {
@@ -44,11 +49,12 @@ impl BroadPhase {
     /// Chooses the cell size and the big balls. Cheap to call every step: it recomputes only when
     /// the set of diameters changed.
     fn layout(&mut self, radii: &[f64], width: f64, height: f64) {
-        let key = (radii.len(), radii.iter().fold(0.0f64, |s, r| s + r).to_bits());
-        if key == self.layout_key && self.cols > 0 {
+        if self.cols > 0 && self.layout_field == (width, height) && self.layout_radii == radii {
             return;
         }
-        self.layout_key = key;
+        self.layout_field = (width, height);
+        self.layout_radii.clear();
+        self.layout_radii.extend_from_slice(radii);
         let n = radii.len();
         let mut sorted: Vec<f64> = radii.to_vec();
         sorted.sort_by(f64::total_cmp);
@@ -71,6 +77,7 @@ impl BroadPhase {
         let max_cells = (4 * n + 64) as f64;
         let min_cell = (width * height / max_cells).sqrt();
         self.cell = cell.max(min_cell).max(f64::MIN_POSITIVE);
+        self.inverse_cell = 1.0 / self.cell;
         self.cols = ((width / self.cell).ceil() as usize).max(1);
         self.rows = ((height / self.cell).ceil() as usize).max(1);
     }
@@ -78,8 +85,8 @@ impl BroadPhase {
     #[inline]
     fn cell_coords(&self, p: DVec2) -> (usize, usize) {
         // `as usize` saturates: NaN and negatives go to 0, huge values are clamped below.
-        let cx = ((p.x / self.cell) as usize).min(self.cols - 1);
-        let cy = ((p.y / self.cell) as usize).min(self.rows - 1);
+        let cx = ((p.x * self.inverse_cell) as usize).min(self.cols - 1);
+        let cy = ((p.y * self.inverse_cell) as usize).min(self.rows - 1);
         (cx, cy)
     }
 
@@ -100,7 +107,11 @@ impl BroadPhase {
             self.cell_of.push(c as u32);
             self.cell_start[c + 1] += 1;
         }
+        self.occupied.clear();
         for c in 0..cells {
+            if self.cell_start[c + 1] != 0 {
+                self.occupied.push(c as u32);
+            }
             self.cell_start[c + 1] += self.cell_start[c];
         }
         let total = self.cell_start[cells] as usize;
@@ -141,13 +152,11 @@ impl BroadPhase {
             let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
             dx * dx + dy * dy < reach * reach
         }
-        for cy in 0..rows {
-            for cx in 0..cols {
-                let c = cy * cols + cx;
+        for &c in &self.occupied {
+            let c = c as usize;
+            let (cx, cy) = (c % cols, c / cols);
+            {
                 let here = self.cell_range(c);
-                if here.is_empty() {
-                    continue;
-                }
                 // Half stencil: this cell, then E, NW, N, NE, so each neighbouring pair of cells
                 // is visited from one side only.
                 for k in here.clone() {

@@ -124,6 +124,42 @@ pub fn drag_force(velocity: DVec2, diameter: f64, drag: &Drag) -> DVec2 {
     }
 }
 
+/// How fast drag slows a ball, 1/s: `|dv/dt| / |v|` (`½·ρ·C_d·A·|v|/m` or `3·π·μ·d/m`). An
+/// explicit step of length h is stable only while `rate·h` stays below about 1 — a light, large
+/// ball at high speed is a stiff problem, and the engines split their steps to keep
+/// `rate·h ≤` [`MAX_DRAG_STEP`].
+#[inline]
+pub fn drag_rate(velocity: DVec2, diameter: f64, mass: f64, drag: &Drag) -> f64 {
+    match *drag {
+        Drag::Quadratic { rho, cd } => 0.5 * rho * cd * disc_area(diameter) * velocity.length() / mass,
+        Drag::Linear { mu } => 3.0 * std::f64::consts::PI * mu * diameter / mass,
+    }
+}
+
+/// The square of the angular frequency at which a pair of attracting balls would orbit (or, when
+/// they overlap, oscillate through each other), `G·(ma + mb)/max(r, R)³`, 1/s². An explicit step h
+/// resolves that motion only while `ω·h` is small; the engines split their steps to keep it at
+/// most [`MAX_ORBIT_STEP`].
+#[inline]
+pub fn attraction_rate_squared(
+    pa: DVec2,
+    ma: f64,
+    ra: f64,
+    pb: DVec2,
+    mb: f64,
+    rb: f64,
+    attraction: &Attraction,
+) -> f64 {
+    let r = (pb - pa).length().max(ra + rb);
+    attraction.g_constant * (ma + mb) / (r * r * r)
+}
+
+/// Largest `ω·h` a step may have for attracting pairs (see [`attraction_rate_squared`]).
+pub const MAX_ORBIT_STEP: f64 = 0.2;
+
+/// Largest `drag_rate · h` a step may have (see [`drag_rate`]).
+pub const MAX_DRAG_STEP: f64 = 0.5;
+
 /// Terminal speed of a ball falling under gravity `g` (magnitude) with quadratic drag:
 /// `v_t = sqrt(2·m·g / (ρ·C_d·A))`.
 pub fn quadratic_terminal_speed(mass: f64, diameter: f64, g: f64, rho: f64, cd: f64) -> f64 {

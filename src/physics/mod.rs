@@ -22,9 +22,9 @@ pub use diagnostics::{
     momentum,
 };
 pub use effects::{
-    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, Drag, Effects, Gravity, NEWTON_G, SPHERE_DRAG_COEFFICIENT,
-    STANDARD_GRAVITY, attraction_force, attraction_potential, drag_force, gravity_force, gravity_potential,
-    quadratic_terminal_speed,
+    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, Drag, Effects, Gravity, MAX_DRAG_STEP, MAX_ORBIT_STEP,
+    NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force, attraction_potential,
+    attraction_rate_squared, drag_force, drag_rate, gravity_force, gravity_potential, quadratic_terminal_speed,
 };
 pub use field::{Field, Wall, WallImpulses};
 pub use forces::{BodyProps, Forces, PointForce};
