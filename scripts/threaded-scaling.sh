@@ -9,7 +9,7 @@ secs=${1:-5}
 shift || true
 counts=("${@:-64 256 1024 4096}")
 cargo build --release --quiet
-bin=target/release/ballfield
+bin="${CARGO_TARGET_DIR:-target}/release/ballfield"
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 echo "| balls | update rate min /s | median /s | monitor passes /s | CPU cores | impulses sent = applied | dropped |"
