@@ -14,14 +14,17 @@ use std::time::{Duration, Instant};
 
 use cpu_time::ProcessTime;
 
-use crate::headless::{Engine, HeadlessError, HeadlessOptions, RunLength, steps_for};
+use crate::headless::{
+    Engine, HeadlessError, HeadlessOptions, finish_threaded, lockstep_report, runtime_config, steps_for,
+    threaded_seconds, threaded_start,
+};
 use crate::lockstep::Lockstep;
-use crate::physics::{Bodies, measure};
+use crate::physics::Bodies;
 use crate::render::{FrameSnapshot, Layout, OffscreenRenderer, RenderError};
-use crate::report::{RunReport, ThreadedFigures};
-use crate::runtime::{Runtime, RuntimeConfig};
+use crate::report::RunReport;
+use crate::runtime::Runtime;
 use crate::scene::Scene;
-use crate::state_file::{read_state, write_state};
+use crate::state_file::read_state;
 
 /// Where and how often to write frames.
 #[derive(Clone, Debug, PartialEq)]
@@ -198,29 +201,7 @@ fn run_lockstep(
         rec.write()?;
     }
     engine.run(steps - done);
-    let wall_seconds = stepping.as_secs_f64();
-    let end = engine.diagnostics();
-    if let Some(path) = &options.state_out {
-        write_state(path, &engine.bodies().to_balls()).map_err(HeadlessError::StateOut)?;
-    }
-    let report = RunReport {
-        scene: scene.name.clone(),
-        scene_file: options.scene_file.clone(),
-        engine: Engine::Lockstep.name().into(),
-        integrator: scene.integrator.name().into(),
-        dt: scene.dt,
-        steps,
-        simulated_seconds: engine.time(),
-        wall_seconds,
-        steps_per_second: if wall_seconds > 0.0 { steps as f64 / wall_seconds } else { 0.0 },
-        balls: engine.bodies().len(),
-        active_effects: engine.active_effects().iter().map(|s| s.to_string()).collect(),
-        start,
-        end,
-        phases: Some(*engine.counters()),
-        state_hash: Some(format!("{:016x}", engine.state_hash())),
-        runtime: None,
-    };
+    let report = lockstep_report(scene, options, &engine, start, steps, stepping.as_secs_f64())?;
     Ok((report, rec.finish()))
 }
 
@@ -230,17 +211,9 @@ fn run_threaded(
     every: f64,
     mut rec: Recorder,
 ) -> Result<(RunReport, FramesWritten), FramesError> {
-    let config = RuntimeConfig {
-        ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
-        max_balls: scene.max_balls,
-        ..RuntimeConfig::default()
-    };
-    let seconds = match options.length {
-        RunLength::Duration(d) => d,
-        RunLength::Steps(n) => n as f64 * scene.ball_cycle,
-    };
-    let start = measure(&Bodies::from_balls(&scene.balls), &scene.field, &scene.effects, Default::default());
-    let runtime = Runtime::start(scene, config).map_err(HeadlessError::Runtime)?;
+    let seconds = threaded_seconds(scene, options.length);
+    let start = threaded_start(scene);
+    let runtime = Runtime::start(scene, runtime_config(scene)).map_err(HeadlessError::Runtime)?;
     let cpu = ProcessTime::now();
     let clock = Instant::now();
     let mut records = Vec::new();
@@ -273,46 +246,11 @@ fn run_threaded(
     if failure.is_none() && left > 0.0 {
         std::thread::sleep(Duration::from_secs_f64(left));
     }
-    runtime.pause();
-    std::thread::sleep(scene.ball_cycle_duration() * 3);
-    let wall_seconds = clock.elapsed().as_secs_f64();
-    let cpu_seconds = cpu.elapsed().as_secs_f64();
-    let stats = runtime.stats();
-    let bodies = runtime.bodies();
-    let walls = runtime.wall_impulses();
-    let params = runtime.params();
-    let shutdown = runtime.shutdown();
     if let Some(e) = failure {
+        // Dropping the runtime stops and joins every thread.
         return Err(e);
     }
-    let end = measure(&bodies, &params.field, &params.effects, walls);
-    if let Some(path) = &options.state_out {
-        write_state(path, &bodies.to_balls()).map_err(HeadlessError::StateOut)?;
-    }
-    let report = RunReport {
-        scene: scene.name.clone(),
-        scene_file: options.scene_file.clone(),
-        engine: Engine::Threaded.name().into(),
-        integrator: params.integrator.name().into(),
-        dt: scene.ball_cycle,
-        steps: 0,
-        simulated_seconds: wall_seconds * params.time_scale,
-        wall_seconds,
-        steps_per_second: stats.ball_rate_median,
-        balls: bodies.len(),
-        active_effects: scene.effects.active_names().iter().map(|s| s.to_string()).collect(),
-        start,
-        end,
-        phases: None,
-        state_hash: None,
-        runtime: Some(ThreadedFigures {
-            stats,
-            cpu_seconds,
-            cpu_cores_used: cpu_seconds / wall_seconds.max(1e-9),
-            shutdown_seconds: shutdown.seconds,
-            threads_joined: shutdown.joined,
-        }),
-    };
+    let report = finish_threaded(scene, options, runtime, start, cpu, clock)?;
     Ok((report, rec.finish()))
 }
 

@@ -9,7 +9,7 @@ use cpu_time::ProcessTime;
 
 use crate::lockstep::Lockstep;
 use crate::physics::Integrator;
-use crate::physics::{Bodies, measure};
+use crate::physics::{Bodies, Diagnostics, measure};
 use crate::report::RunReport;
 use crate::report::ThreadedFigures;
 use crate::runtime::{Runtime, RuntimeConfig, RuntimeError};
@@ -97,7 +97,18 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
     let start = engine.diagnostics();
     let clock = Instant::now();
     engine.run(steps);
-    let wall_seconds = clock.elapsed().as_secs_f64();
+    lockstep_report(&scene, options, &engine, start, steps, clock.elapsed().as_secs_f64())
+}
+
+/// The report of a finished lockstep run (writes `--state-out` first). Shared with `frames`.
+pub(crate) fn lockstep_report(
+    scene: &Scene,
+    options: &HeadlessOptions,
+    engine: &Lockstep,
+    start: Diagnostics,
+    steps: u64,
+    wall_seconds: f64,
+) -> Result<RunReport, HeadlessError> {
     let end = engine.diagnostics();
     if let Some(path) = &options.state_out {
         write_state(path, &engine.bodies().to_balls()).map_err(HeadlessError::StateOut)?;
@@ -105,7 +116,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
     Ok(RunReport {
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),
-        engine: options.engine.name().into(),
+        engine: Engine::Lockstep.name().into(),
         integrator: scene.integrator.name().into(),
         dt: scene.dt,
         steps,
@@ -122,24 +133,50 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
     })
 }
 
-/// The threaded run: the scene on one thread per ball for a wall-clock duration (`--steps N`
-/// means N ball cycles' worth of time).
-fn run_threaded(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, HeadlessError> {
-    let config = RuntimeConfig {
+/// The runtime configuration a scene asks for.
+pub(crate) fn runtime_config(scene: &Scene) -> RuntimeConfig {
+    RuntimeConfig {
         ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
         max_balls: scene.max_balls,
         ..RuntimeConfig::default()
-    };
-    let seconds = match options.length {
+    }
+}
+
+/// Wall-clock seconds a threaded run lasts (`--steps N` means N ball cycles' worth of time).
+pub(crate) fn threaded_seconds(scene: &Scene, length: RunLength) -> f64 {
+    match length {
         RunLength::Duration(d) => d,
         RunLength::Steps(n) => n as f64 * scene.ball_cycle,
-    };
-    let start = measure(&Bodies::from_balls(&scene.balls), &scene.field, &scene.effects, Default::default());
-    let runtime = Runtime::start(scene, config).map_err(HeadlessError::Runtime)?;
+    }
+}
+
+/// The scene's own state, measured: the start of a threaded run (its balls start moving while
+/// the others' threads are still being spawned).
+pub(crate) fn threaded_start(scene: &Scene) -> Diagnostics {
+    measure(&Bodies::from_balls(&scene.balls), &scene.field, &scene.effects, Default::default())
+}
+
+/// The threaded run: the scene on one thread per ball for a wall-clock duration.
+fn run_threaded(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, HeadlessError> {
+    let seconds = threaded_seconds(scene, options.length);
+    let start = threaded_start(scene);
+    let runtime = Runtime::start(scene, runtime_config(scene)).map_err(HeadlessError::Runtime)?;
     let cpu = ProcessTime::now();
     let clock = Instant::now();
     std::thread::sleep(Duration::from_secs_f64(seconds));
-    // Pause so that the snapshot is of balls at rest in time (nothing moves between reads).
+    finish_threaded(scene, options, runtime, start, cpu, clock)
+}
+
+/// Ends a threaded run: pauses (so the snapshot is of balls at rest in time), reads the figures,
+/// joins every thread, writes `--state-out` and builds the report. Shared with `frames`.
+pub(crate) fn finish_threaded(
+    scene: &Scene,
+    options: &HeadlessOptions,
+    runtime: Runtime,
+    start: Diagnostics,
+    cpu: ProcessTime,
+    clock: Instant,
+) -> Result<RunReport, HeadlessError> {
     runtime.pause();
     std::thread::sleep(scene.ball_cycle_duration() * 3);
     let wall_seconds = clock.elapsed().as_secs_f64();

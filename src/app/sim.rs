@@ -7,7 +7,7 @@ use glam::DVec2;
 
 use crate::lockstep::Lockstep;
 use crate::physics::{Ball, BallId, BallKind, Effects, WallImpulses};
-use crate::runtime::{BallRecord, Runtime, RuntimeConfig};
+use crate::runtime::{BallRecord, Runtime, RuntimeConfig, next_uniform};
 use crate::scene::Scene;
 
 /// Which engine runs the field.
@@ -342,14 +342,4 @@ impl Drop for Sim {
     fn drop(&mut self) {
         self.shutdown();
     }
-}
-
-/// A uniform number in [0, 1) from a splitmix64 state.
-fn next_uniform(state: &mut u64) -> f64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }

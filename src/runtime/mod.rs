@@ -522,8 +522,8 @@ impl Drop for Runtime {
     }
 }
 
-/// A uniform number in [0, 1) from a splitmix64 state (free-spot placement only).
-fn next_uniform(state: &mut u64) -> f64 {
+/// A uniform number in [0, 1) from a splitmix64 state (free-spot placement; the window's too).
+pub(crate) fn next_uniform(state: &mut u64) -> f64 {
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
     let mut z = *state;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
