@@ -9,18 +9,33 @@
 //! 2. **broad phase** — the grid finds the touching pairs (only with collisions on);
 //! 3. **contacts** — one normal impulse per approaching pair, overlaps pushed apart;
 //! 4. **walls** — reflect and sum the wall impulses.
+//!
+//! **Threads.** With [`Lockstep::set_threads`] > 1 (the default is every core) and at least
+//! [`PARALLEL_MIN_BALLS`] balls, the phases share the work out over a thread pool: integration
+//! and walls by fixed chunks of [`CHUNK`] balls (each ball's update reads only that ball, unless
+//! attraction couples them), the pair search and the contact solver by bands of the grid (see
+//! `contact_solver`). How the work is cut depends only on the state, never on the number of
+//! threads, and every sum is taken in the same order, so the bits are the same for any number of
+//! threads (a test runs 1, 2 and 4).
 
+mod contact_solver;
+
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::DVec2;
 use serde::Serialize;
 
+use rayon::prelude::*;
+
 use crate::physics::{
-    Ball, BallId, BallKind, Bodies, BroadPhase, ContactBody, Diagnostics, Effects, Field, Forces, Integrator,
+    Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Effects, Field, Forces, Integrator,
     IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, attraction_rate_squared,
-    contact_ball_ball, contact_ball_wall, drag_rate, integrate, measure,
+    contact_ball_wall, drag_rate, integrate, measure,
 };
 use crate::scene::Scene;
+use contact_solver::ContactSolver;
+pub use contact_solver::PARALLEL_MIN_PAIRS;
 
 /// Largest distance a ball may travel in one (sub-)step with collisions on, in radii.
 pub const MAX_TRAVEL: f64 = 0.5;
@@ -28,6 +43,11 @@ pub const MAX_TRAVEL: f64 = 0.5;
 pub const CONTACT_ITERATIONS: usize = 4;
 /// Most sub-steps one step is split into.
 pub const MAX_SUBSTEPS: u32 = 4096;
+/// Fewest balls for which the phases are shared out over threads (below it, one thread is faster
+/// than the hand-over).
+pub const PARALLEL_MIN_BALLS: usize = 4096;
+/// Balls per chunk when integration and walls are shared out (fixed: see the module comment).
+pub const CHUNK: usize = 2048;
 
 /// Time spent in each phase, summed over steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -88,10 +108,15 @@ pub struct Lockstep {
     steps: u64,
     wall_impulses: WallImpulses,
     counters: StepCounters,
-    scratch: IntegratorScratch,
+    /// One integrator scratch per chunk of [`CHUNK`] balls.
+    scratch: Vec<IntegratorScratch>,
     broad_phase: BroadPhase,
-    pairs: Vec<(u32, u32)>,
+    contacts: ContactSolver,
     adaptive_substeps: bool,
+    threads: usize,
+    /// Built on first need (a field of at least [`PARALLEL_MIN_BALLS`] with `threads` > 1), shared
+    /// by clones.
+    pool: Option<Arc<rayon::ThreadPool>>,
 }
 
 impl Lockstep {
@@ -122,10 +147,12 @@ impl Lockstep {
             steps: 0,
             wall_impulses: WallImpulses::default(),
             counters: StepCounters::default(),
-            scratch: IntegratorScratch::default(),
+            scratch: Vec::new(),
             broad_phase: BroadPhase::new(),
-            pairs: Vec::new(),
+            contacts: ContactSolver::default(),
             adaptive_substeps: true,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            pool: None,
         }
     }
 
@@ -180,6 +207,42 @@ impl Lockstep {
     /// each integrator at exactly the step it was given.
     pub fn set_adaptive_substeps(&mut self, on: bool) {
         self.adaptive_substeps = on;
+    }
+
+    /// Threads the phases may use (at least 1; the default is every core). Changes no bit of
+    /// the result (see the module comment).
+    pub fn set_threads(&mut self, threads: usize) {
+        let threads = threads.max(1);
+        if threads != self.threads {
+            self.threads = threads;
+            self.pool = None;
+        }
+    }
+
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Whether this field is big enough to share the phases out, building the pool on first need.
+    /// Depends on the ball count only, never on `threads`: the work is cut the same way either way.
+    fn parallel(&mut self) -> Option<Arc<rayon::ThreadPool>> {
+        if self.bodies.len() < PARALLEL_MIN_BALLS || self.threads == 1 {
+            return None;
+        }
+        if self.pool.is_none() {
+            let built = rayon::ThreadPoolBuilder::new()
+                .num_threads(self.threads)
+                .thread_name(|k| format!("lockstep-{k}"))
+                .build();
+            match built {
+                Ok(pool) => self.pool = Some(Arc::new(pool)),
+                Err(e) => {
+                    log::warn!("lockstep: no thread pool ({e}); running on one thread");
+                    self.threads = 1;
+                }
+            }
+        }
+        self.pool.clone()
     }
 
     pub fn set_integrator(&mut self, integrator: Integrator) {
@@ -300,109 +363,136 @@ impl Lockstep {
     }
 
     fn substep(&mut self, h: f64) {
+        let pool = self.parallel();
         let t0 = Instant::now();
-        self.integrate_phase(h);
+        self.integrate_phase(h, pool.as_deref());
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
         if let Some(collisions) = self.effects.collisions {
-            self.broad_phase_phase();
+            self.broad_phase_phase(pool.as_deref());
             let t2 = Instant::now();
             self.counters.broad_phase += t2 - t1;
-            self.contacts_phase(collisions.restitution, h);
+            let (bodies, grid, contacts) = (&mut self.bodies, &self.broad_phase, &mut self.contacts);
+            let impulses = in_pool(pool.as_deref(), || {
+                contacts.solve(bodies, grid, collisions.restitution, h, CONTACT_ITERATIONS, pool.is_some())
+            });
+            self.counters.impulses += impulses;
             let t3 = Instant::now();
             self.counters.contacts += t3 - t2;
         }
         let t4 = Instant::now();
-        self.walls_phase();
+        self.walls_phase(pool.as_deref());
         self.counters.walls += t4.elapsed();
     }
 
-    fn integrate_phase(&mut self, dt: f64) {
+    /// The force passes inside the integrator. Without attraction every ball's update reads only
+    /// that ball, so the balls are integrated in chunks of [`CHUNK`] (on the pool's threads when
+    /// there is one): the same arithmetic on every ball as one whole-field call.
+    fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>) {
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
         };
         let Bodies { position, velocity, mass, inverse_mass, diameter, .. } = &mut self.bodies;
-        if self.forces.is_empty() && pull.is_none() {
-            // No force at all: every integrator reduces to a straight drift, so that is all we do.
-            for (x, v) in position.iter_mut().zip(velocity.iter()) {
-                *x += *v * dt;
-            }
+        let (forces, method) = (&self.forces, self.integrator);
+        let velocity_dependent = forces.depends_on_velocity();
+        if !forces.is_local() {
+            self.scratch.resize_with(1, Default::default);
+            let props = BodyProps { mass, inverse_mass, diameter };
+            integrate(method, dt, position, velocity, velocity_dependent, &mut self.scratch[0], |x, v, a| {
+                forces.accelerations(props, pull, x, v, a)
+            });
             return;
         }
-        let props = crate::physics::BodyProps { mass, inverse_mass, diameter };
-        let forces = &self.forces;
-        let velocity_dependent = forces.depends_on_velocity();
-        integrate(self.integrator, dt, position, velocity, velocity_dependent, &mut self.scratch, |x, v, a| {
-            forces.accelerations(props, pull, x, v, a)
-        });
+        self.scratch.resize_with(position.len().div_ceil(CHUNK), Default::default);
+        let (mass, inverse_mass, diameter) = (&mass[..], &inverse_mass[..], &diameter[..]);
+        let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], scratch: &mut IntegratorScratch| {
+            let range = c * CHUNK..c * CHUNK + x.len();
+            let pull =
+                pull.filter(|p| range.contains(&p.index)).map(|p| PointForce { index: p.index - range.start, ..p });
+            if forces.is_empty() && pull.is_none() {
+                // No force at all: every integrator reduces to a straight drift, so that is all we do.
+                for (x, v) in x.iter_mut().zip(v.iter()) {
+                    *x += *v * dt;
+                }
+                return;
+            }
+            let props = BodyProps {
+                mass: &mass[range.clone()],
+                inverse_mass: &inverse_mass[range.clone()],
+                diameter: &diameter[range],
+            };
+            integrate(method, dt, x, v, velocity_dependent, scratch, |x, v, a| {
+                forces.accelerations(props, pull, x, v, a)
+            });
+        };
+        match pool {
+            Some(pool) => pool.install(|| {
+                position
+                    .par_chunks_mut(CHUNK)
+                    .zip(velocity.par_chunks_mut(CHUNK))
+                    .zip(&mut self.scratch)
+                    .enumerate()
+                    .for_each(|(c, ((x, v), scratch))| chunk(c, x, v, scratch))
+            }),
+            None => position
+                .chunks_mut(CHUNK)
+                .zip(velocity.chunks_mut(CHUNK))
+                .zip(&mut self.scratch)
+                .enumerate()
+                .for_each(|(c, ((x, v), scratch))| chunk(c, x, v, scratch)),
+        }
     }
 
-    fn broad_phase_phase(&mut self) {
+    fn broad_phase_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
         let b = &self.bodies;
         self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
-        self.pairs.clear();
-        let pairs = &mut self.pairs;
-        self.broad_phase.for_each_touching_pair(&b.position, &b.radius, |i, j| pairs.push((i as u32, j as u32)));
-        self.counters.touching_pairs += self.pairs.len() as u64;
+        let (grid, contacts) = (&self.broad_phase, &mut self.contacts);
+        in_pool(pool, || contacts.find_pairs(grid, pool.is_some()));
+        self.counters.touching_pairs += self.contacts.pair_count() as u64;
     }
 
-    /// Sequential impulses over the touching pairs, [`CONTACT_ITERATIONS`] passes: the first
-    /// resolves the collisions, the later ones the overlaps that resolving one pair of a crowd or a
-    /// pile pushes into its neighbours (a pair that no longer overlaps is skipped).
-    fn contacts_phase(&mut self, restitution: f64, dt: f64) {
-        let b = &mut self.bodies;
-        let mut impulses = 0;
-        for _ in 0..CONTACT_ITERATIONS {
-            let mut active = 0;
-            for &(i, j) in &self.pairs {
-                let (i, j) = (i as usize, j as usize);
-                let body = |k: usize| ContactBody {
-                    id: b.id[k],
-                    position: b.position[k],
-                    velocity: b.velocity[k],
-                    inverse_mass: b.inverse_mass[k],
-                    radius: b.radius[k],
-                };
-                if let Some(c) = contact_ball_ball(&body(i), &body(j), restitution, dt) {
-                    if c.impulse > 0.0 {
-                        b.velocity[i] += c.velocity_change_a;
-                        b.velocity[j] += c.velocity_change_b;
-                        impulses += 1;
-                    }
-                    b.position[i] += c.shift_a;
-                    b.position[j] += c.shift_b;
-                    active += 1;
-                }
-            }
-            if active == 0 {
-                break;
-            }
-        }
-        self.counters.impulses += impulses;
-    }
-
-    fn walls_phase(&mut self) {
+    /// Walls, in chunks of [`CHUNK`] balls; each chunk sums its own wall impulses and the chunks'
+    /// sums are added in chunk order, so the total has the same bits on any number of threads.
+    fn walls_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
         let gravity = self.effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
         let key = self.bodies.key_index();
-        let b = &mut self.bodies;
-        let mut touched = 0;
-        for i in 0..b.len() {
-            // The ball's uniform acceleration during the step, for an exact bounce.
-            let acceleration = if Some(i) == key { gravity + self.pull * b.inverse_mass[i] } else { gravity };
-            if contact_ball_wall(
-                &mut b.position[i],
-                &mut b.velocity[i],
-                b.radius[i],
-                b.mass[i],
-                acceleration,
-                &self.field,
-                &mut self.wall_impulses,
-            ) {
-                touched += 1;
+        let (pull, field) = (self.pull, &self.field);
+        let Bodies { position, velocity, radius, mass, inverse_mass, .. } = &mut self.bodies;
+        let (radius, mass, inverse_mass) = (&radius[..], &mass[..], &inverse_mass[..]);
+        let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2]| {
+            let mut impulses = WallImpulses::default();
+            let mut touched = 0u64;
+            for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
+                let i = c * CHUNK + k;
+                // The ball's uniform acceleration during the step, for an exact bounce.
+                let acceleration = if Some(i) == key { gravity + pull * inverse_mass[i] } else { gravity };
+                if contact_ball_wall(x, v, radius[i], mass[i], acceleration, field, &mut impulses) {
+                    touched += 1;
+                }
             }
+            (impulses, touched)
+        };
+        let sums: Vec<(WallImpulses, u64)> = match pool {
+            Some(pool) => pool.install(|| {
+                position
+                    .par_chunks_mut(CHUNK)
+                    .zip(velocity.par_chunks_mut(CHUNK))
+                    .enumerate()
+                    .map(|(c, (x, v))| chunk(c, x, v))
+                    .collect()
+            }),
+            None => position
+                .chunks_mut(CHUNK)
+                .zip(velocity.chunks_mut(CHUNK))
+                .enumerate()
+                .map(|(c, (x, v))| chunk(c, x, v))
+                .collect(),
+        };
+        for (impulses, touched) in &sums {
+            self.wall_impulses.add_all(impulses);
+            self.counters.wall_contacts += touched;
         }
-        self.counters.wall_contacts += touched;
     }
 
     /// Energies, momentum, overlap and wall impulses now.
@@ -414,6 +504,14 @@ impl Lockstep {
     /// diameter, in order. Two runs agree on it only if they agree to the last bit.
     pub fn state_hash(&self) -> u64 {
         state_hash(&self.bodies)
+    }
+}
+
+/// Runs `f` inside the pool (so its parallel iterators use the pool's threads), or here.
+fn in_pool<R: Send>(pool: Option<&rayon::ThreadPool>, f: impl FnOnce() -> R + Send) -> R {
+    match pool {
+        Some(pool) => pool.install(f),
+        None => f(),
     }
 }
 

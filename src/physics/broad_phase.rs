@@ -1,16 +1,38 @@
 //! Broad phase: a uniform grid that finds the pairs of balls that may touch in O(n).
 //!
-//! The cell is as wide as the largest "small" ball, so two touching small balls always lie in the
-//! same or neighbouring cells. Balls much larger than the typical one (more than
-//! [`BIG_BALL_FACTOR`] times the median diameter) would make every cell huge; they are kept out of
-//! the grid and each is checked against the cells its bounding box covers. Cells are filled by a
-//! counting sort each step, so building the grid allocates nothing once warm and the pair order
-//! is a pure function of the positions: deterministic.
+//! The cell is as wide as the largest "small" ball (or wider in a sparse field, so that there are
+//! about as many cells as balls), so two touching small balls always lie in the same or
+//! neighbouring cells. Balls much larger than the typical one (more than [`BIG_BALL_FACTOR`]
+//! times the median diameter) would make every cell huge; they are kept out of the grid and each
+//! is checked against the cells its bounding box covers. Cells are filled by a counting sort each
+//! step, so building the grid allocates nothing once warm and the pair order is a pure function
+//! of the positions: deterministic.
+//!
+//! **Slots.** The sort puts the balls in *slot* order: the balls of cell 0, of cell 1, … in
+//! row-major order, then the big balls. [`BroadPhase::slots`] maps a slot to its ball. Pairs are
+//! reported as slots, so a solver can work on a copy of the balls in slot order.
+//!
+//! **Bands.** The rows are grouped into horizontal *bands* of at least [`MIN_BAND_ROWS`] rows
+//! (at most [`MAX_BANDS`] bands), chosen from the grid alone. A band's balls are a contiguous run
+//! of slots. Every touching pair is one of three kinds:
+//! - *inside band b*: both balls in band b ([`BroadPhase::for_each_band_pair`]);
+//! - *on seam b*: one ball in the top row of band b, one in the bottom row of band b + 1
+//!   ([`BroadPhase::for_each_seam_pair`]); a seam's balls are a contiguous run of slots too, and
+//!   since bands have at least two rows, two seams never share a ball;
+//! - *with a big ball* ([`BroadPhase::for_each_big_pair`]).
+//!
+//! So the pairs of different bands touch disjoint balls, and so do the pairs of different seams:
+//! a solver may work the bands at the same time, then the seams, then the big balls, and get the
+//! same bits however many threads share the work (the lockstep engine does exactly this).
 
-use glam::DVec2;
+use std::ops::Range;
 
 /// A ball is "big" when its diameter exceeds this many median diameters.
 pub const BIG_BALL_FACTOR: f64 = 4.0;
+/// Fewest grid rows in a band (at least 2: see the module comment).
+pub const MIN_BAND_ROWS: usize = 4;
+/// Most bands the rows are grouped into.
+pub const MAX_BANDS: usize = 64;
 
 /// The grid and its scratch memory. Rebuild with [`BroadPhase::update`] every step.
 #[derive(Clone, Debug, Default)]
@@ -19,21 +41,78 @@ pub struct BroadPhase {
     inverse_cell: f64,
     cols: usize,
     rows: usize,
+    /// Rows per band (the last band may have fewer) and the number of bands.
+    band_rows: usize,
+    bands: usize,
     /// Indices of the balls kept out of the grid.
     big: Vec<u32>,
     is_big: Vec<bool>,
     cell_of: Vec<u32>,
-    /// `cell_start[c]..cell_start[c + 1]` indexes `entries` for cell c.
+    /// `cell_start[c]..cell_start[c + 1]` are the slots of cell c (length cells + 1).
     cell_start: Vec<u32>,
-    entries: Vec<u32>,
-    /// `(x, y, radius)` of `entries[k]`, copied so the pair loops read memory in order.
-    entry_shape: Vec<[f64; 3]>,
+    /// The ball in each slot: grid balls in cell order, then the big balls.
+    slots: Vec<u32>,
+    /// The slot of each ball (the inverse of `slots`).
+    ball_slot: Vec<u32>,
+    /// `(x, y, radius)` of each slot's ball, copied so the pair loops read memory in order.
+    slot_shape: Vec<[f64; 3]>,
     /// The radii the layout was chosen for (compared whole each step: a sum or a count would miss
     /// a big ball removed and another added elsewhere).
     layout_radii: Vec<f64>,
     layout_field: (f64, f64),
     /// Occupied cells of the last update, in row-major order (the pair search visits only these).
     occupied: Vec<u32>,
+    /// `occupied[band_occupied[b]..band_occupied[b + 1]]` are the occupied cells of band b.
+    band_occupied: Vec<u32>,
+}
+
+/// Writes each ball's cell to `cell_of` (`u32::MAX` for a big ball) and counts the balls of
+/// cell c in `counts[c]`. (Free functions with slice arguments, so the compiler knows the
+/// slices do not alias and keeps the loop tight.)
+fn count_cells(
+    positions: &[glam::DVec2],
+    is_big: &[bool],
+    cell_of: &mut [u32],
+    counts: &mut [u32],
+    cell: impl Fn(f64, f64) -> usize,
+) {
+    for ((p, &big), slot) in positions.iter().zip(is_big).zip(cell_of.iter_mut()) {
+        if big {
+            *slot = u32::MAX;
+        } else {
+            let c = cell(p.x, p.y);
+            *slot = c as u32;
+            counts[c] += 1;
+        }
+    }
+}
+
+/// Puts each grid ball into the next free slot of its cell (`cursor[c]`, advanced).
+fn fill_slots(
+    positions: &[glam::DVec2],
+    radii: &[f64],
+    cell_of: &[u32],
+    cursor: &mut [u32],
+    slots: &mut [u32],
+    ball_slot: &mut [u32],
+    shape: &mut [[f64; 3]],
+) {
+    for (i, &c) in cell_of.iter().enumerate() {
+        if c == u32::MAX {
+            continue;
+        }
+        let slot = cursor[c as usize] as usize;
+        cursor[c as usize] += 1;
+        slots[slot] = i as u32;
+        ball_slot[i] = slot as u32;
+        shape[slot] = [positions[i].x, positions[i].y, radii[i]];
+    }
+}
+
+#[inline(always)]
+fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
+    let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
+    dx * dx + dy * dy < reach * reach
 }
 
 impl BroadPhase {
@@ -46,8 +125,8 @@ impl BroadPhase {
         self.cell
     }
 
-    /// Chooses the cell size and the big balls. Cheap to call every step: it recomputes only when
-    /// the set of diameters changed.
+    /// Chooses the cell size, the bands and the big balls. Cheap to call every step: it
+    /// recomputes only when the set of diameters or the field changed.
     fn layout(&mut self, radii: &[f64], width: f64, height: f64) {
         if self.cols > 0 && self.layout_field == (width, height) && self.layout_radii == radii {
             return;
@@ -72,153 +151,243 @@ impl BroadPhase {
                 cell = cell.max(2.0 * r);
             }
         }
-        // Never more cells than about four per ball: tiny balls in a big field get larger cells
-        // (still correct, only less selective).
-        let max_cells = (4 * n + 64) as f64;
+        // About one cell per ball at most: in a sparse field the cells grow (still correct, only
+        // less selective), which keeps the per-step sweep over the cells as cheap as the balls.
+        let max_cells = (n + 16) as f64;
         let min_cell = (width * height / max_cells).sqrt();
         self.cell = cell.max(min_cell).max(f64::MIN_POSITIVE);
         self.inverse_cell = 1.0 / self.cell;
         self.cols = ((width / self.cell).ceil() as usize).max(1);
         self.rows = ((height / self.cell).ceil() as usize).max(1);
+        self.band_rows = MIN_BAND_ROWS.max(self.rows.div_ceil(MAX_BANDS));
+        self.bands = self.rows.div_ceil(self.band_rows);
     }
 
     #[inline]
-    fn cell_coords(&self, p: DVec2) -> (usize, usize) {
+    fn cell_of_point(&self, x: f64, y: f64) -> usize {
         // `as usize` saturates: NaN and negatives go to 0, huge values are clamped below.
-        let cx = ((p.x * self.inverse_cell) as usize).min(self.cols - 1);
-        let cy = ((p.y * self.inverse_cell) as usize).min(self.rows - 1);
-        (cx, cy)
+        let cx = ((x * self.inverse_cell) as usize).min(self.cols - 1);
+        let cy = ((y * self.inverse_cell) as usize).min(self.rows - 1);
+        cy * self.cols + cx
     }
 
-    /// Sorts the balls into cells for the positions given.
-    pub fn update(&mut self, positions: &[DVec2], radii: &[f64], width: f64, height: f64) {
+    /// Sorts the balls into cells (and slots) for the positions given.
+    pub fn update(&mut self, positions: &[glam::DVec2], radii: &[f64], width: f64, height: f64) {
         self.layout(radii, width, height);
         let cells = self.cols * self.rows;
-        self.cell_start.clear();
-        self.cell_start.resize(cells + 1, 0);
-        self.cell_of.clear();
-        for (i, p) in positions.iter().enumerate() {
-            if self.is_big[i] {
-                self.cell_of.push(u32::MAX);
-                continue;
-            }
-            let (cx, cy) = self.cell_coords(*p);
-            let c = cy * self.cols + cx;
-            self.cell_of.push(c as u32);
-            self.cell_start[c + 1] += 1;
-        }
-        self.occupied.clear();
+        // Count the balls of each cell in cell_start[c + 1].
+        let mut start = std::mem::take(&mut self.cell_start);
+        start.clear();
+        start.resize(cells + 1, 0);
+        self.cell_of.resize(positions.len(), 0);
+        let (cols, rows, inverse_cell) = (self.cols, self.rows, self.inverse_cell);
+        count_cells(positions, &self.is_big, &mut self.cell_of, &mut start[1..], |x, y| {
+            // `as usize` saturates: NaN and negatives go to 0, huge values are clamped below.
+            let cx = ((x * inverse_cell) as usize).min(cols - 1);
+            let cy = ((y * inverse_cell) as usize).min(rows - 1);
+            cy * cols + cx
+        });
+        // Prefix sums: start[c] becomes the first slot of cell c.
+        let mut occupied = std::mem::take(&mut self.occupied);
+        occupied.clear();
+        let mut sum = 0u32;
         for c in 0..cells {
-            if self.cell_start[c + 1] != 0 {
-                self.occupied.push(c as u32);
+            let count = start[c + 1];
+            start[c] = sum;
+            if count != 0 {
+                occupied.push(c as u32);
             }
-            self.cell_start[c + 1] += self.cell_start[c];
+            sum += count;
         }
-        let total = self.cell_start[cells] as usize;
-        self.entries.clear();
-        self.entries.resize(total, 0);
-        self.entry_shape.clear();
-        self.entry_shape.resize(total, [0.0; 3]);
-        // Fill using the starts as cursors, then restore them by shifting back one cell.
-        for (i, &c) in self.cell_of.iter().enumerate() {
-            if c == u32::MAX {
-                continue;
+        start[cells] = sum;
+        let grid = sum as usize;
+        let total = grid + self.big.len();
+        self.slots.resize(total, 0);
+        self.slot_shape.resize(total, [0.0; 3]);
+        // Fill, using start[c] as cell c's cursor; afterwards start[c] is the end of cell c,
+        // which is the start of cell c + 1: shift back by one cell.
+        self.ball_slot.resize(positions.len(), 0);
+        fill_slots(
+            positions,
+            radii,
+            &self.cell_of,
+            &mut start,
+            &mut self.slots,
+            &mut self.ball_slot,
+            &mut self.slot_shape,
+        );
+        start.copy_within(0..cells, 1);
+        start[0] = 0;
+        for (k, &b) in self.big.iter().enumerate() {
+            self.slots[grid + k] = b;
+            self.ball_slot[b as usize] = (grid + k) as u32;
+            self.slot_shape[grid + k] = [positions[b as usize].x, positions[b as usize].y, radii[b as usize]];
+        }
+        // The occupied cells of each band.
+        self.band_occupied.clear();
+        let mut k = 0;
+        for b in 0..self.bands {
+            self.band_occupied.push(k as u32);
+            let end = (self.band_row_range(b).end * self.cols) as u32;
+            while k < occupied.len() && occupied[k] < end {
+                k += 1;
             }
-            let slot = &mut self.cell_start[c as usize];
-            self.entries[*slot as usize] = i as u32;
-            self.entry_shape[*slot as usize] = [positions[i].x, positions[i].y, radii[i]];
-            *slot += 1;
         }
-        for c in (1..=cells).rev() {
-            self.cell_start[c] = self.cell_start[c - 1];
-        }
-        self.cell_start[0] = 0;
+        self.band_occupied.push(k as u32);
+        self.cell_start = start;
+        self.occupied = occupied;
     }
 
     #[inline]
-    fn cell_range(&self, c: usize) -> std::ops::Range<usize> {
+    fn cell_range(&self, c: usize) -> Range<usize> {
         self.cell_start[c] as usize..self.cell_start[c + 1] as usize
     }
 
-    /// Calls `f(i, j)` once for every pair of balls that overlap (centres closer than the sum of
-    /// the radii) at the positions given to the last [`BroadPhase::update`]. The order is
-    /// deterministic: cells in row-major order, then the order of the balls within them.
-    pub fn for_each_touching_pair<F: FnMut(usize, usize)>(&self, positions: &[DVec2], radii: &[f64], mut f: F) {
-        let (cols, rows) = (self.cols, self.rows);
-        let shape = &self.entry_shape;
-        let entries = &self.entries;
-        #[inline(always)]
-        fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
-            let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
-            dx * dx + dy * dy < reach * reach
-        }
-        for &c in &self.occupied {
+    fn band_row_range(&self, b: usize) -> Range<usize> {
+        b * self.band_rows..((b + 1) * self.band_rows).min(self.rows)
+    }
+
+    /// The ball in each slot (see the module comment).
+    pub fn slots(&self) -> &[u32] {
+        &self.slots
+    }
+
+    /// The slot of each ball (the inverse of [`BroadPhase::slots`]).
+    pub fn ball_slots(&self) -> &[u32] {
+        &self.ball_slot
+    }
+
+    /// Number of bands (at least 1 after an update).
+    pub fn band_count(&self) -> usize {
+        self.bands
+    }
+
+    /// The slots of the balls in band b: a contiguous run.
+    pub fn band_slots(&self, b: usize) -> Range<usize> {
+        let rows = self.band_row_range(b);
+        self.cell_start[rows.start * self.cols] as usize..self.cell_start[rows.end * self.cols] as usize
+    }
+
+    /// The slots of the balls seam b can touch (top row of band b, bottom row of band b + 1):
+    /// a contiguous run. Seams are numbered 0..band_count() − 1.
+    pub fn seam_slots(&self, b: usize) -> Range<usize> {
+        let top = self.band_row_range(b).end;
+        let first = (top - 1) * self.cols;
+        let end = ((top + 1).min(self.rows)) * self.cols;
+        self.cell_start[first] as usize..self.cell_start[end] as usize
+    }
+
+    /// The slots of the big balls.
+    pub fn big_slots(&self) -> Range<usize> {
+        let grid = self.cell_start.last().copied().unwrap_or(0) as usize;
+        grid..grid + self.big.len()
+    }
+
+    /// Calls `f(k, m)` with the slots of every touching pair inside band b, in a fixed order.
+    pub fn for_each_band_pair<F: FnMut(usize, usize)>(&self, b: usize, mut f: F) {
+        let rows = self.band_row_range(b);
+        let (cols, shape) = (self.cols, &self.slot_shape);
+        let cells = &self.occupied[self.band_occupied[b] as usize..self.band_occupied[b + 1] as usize];
+        for &c in cells {
             let c = c as usize;
             let (cx, cy) = (c % cols, c / cols);
-            {
-                let here = self.cell_range(c);
-                // Half stencil: this cell, then E, NW, N, NE, so each neighbouring pair of cells
-                // is visited from one side only.
-                for k in here.clone() {
-                    for m in (k + 1)..here.end {
-                        if touching(&shape[k], &shape[m]) {
-                            f(entries[k] as usize, entries[m] as usize);
-                        }
+            // Half stencil: this cell with itself and its east neighbour (one run of slots, as
+            // cells are in row-major order), then with the three cells above it (one run too),
+            // so each neighbouring pair of cells is visited from one side only. The row above
+            // belongs to this band unless cy is its top row (those pairs are the seam's).
+            let here = self.cell_range(c);
+            let east_end = self.cell_start[(c + 2).min((cy + 1) * cols)] as usize;
+            for k in here.clone() {
+                for m in (k + 1)..east_end {
+                    if touching(&shape[k], &shape[m]) {
+                        f(k, m);
                     }
                 }
-                let right = cx + 1 < cols;
-                let up = cy + 1 < rows;
-                let mut neighbours = [usize::MAX; 4];
-                if right {
-                    neighbours[0] = c + 1;
-                }
-                if up {
-                    if cx > 0 {
-                        neighbours[1] = c + cols - 1;
-                    }
-                    neighbours[2] = c + cols;
-                    if right {
-                        neighbours[3] = c + cols + 1;
-                    }
-                }
-                for nc in neighbours {
-                    if nc == usize::MAX {
-                        continue;
-                    }
-                    let there = self.cell_range(nc);
-                    for k in here.clone() {
-                        for m in there.clone() {
-                            if touching(&shape[k], &shape[m]) {
-                                f(entries[k] as usize, entries[m] as usize);
-                            }
-                        }
-                    }
+            }
+            if cy + 1 < rows.end {
+                self.visit_row_above(here, c, cx, &mut f);
+            }
+        }
+    }
+
+    /// Calls `f(k, m)` with the slots of every touching pair on seam b (see the module comment).
+    pub fn for_each_seam_pair<F: FnMut(usize, usize)>(&self, b: usize, mut f: F) {
+        let top = self.band_row_range(b).end;
+        if top >= self.rows {
+            return;
+        }
+        let cols = self.cols;
+        let row = (top - 1) * cols..top * cols;
+        let cells = &self.occupied[self.band_occupied[b] as usize..self.band_occupied[b + 1] as usize];
+        let first = cells.partition_point(|&c| (c as usize) < row.start);
+        for &c in &cells[first..] {
+            let c = c as usize;
+            self.visit_row_above(self.cell_range(c), c, c % cols, &mut f);
+        }
+    }
+
+    /// Pairs of the slots `here` (cell c, column cx) with the balls of the three cells above c
+    /// (NW, N, NE: one run of slots).
+    #[inline(always)]
+    fn visit_row_above<F: FnMut(usize, usize)>(&self, here: Range<usize>, c: usize, cx: usize, f: &mut F) {
+        let cols = self.cols;
+        let above = c + cols;
+        let first = self.cell_start[above - usize::from(cx > 0)] as usize;
+        let end = self.cell_start[above + 1 + usize::from(cx + 1 < cols)] as usize;
+        let shape = &self.slot_shape;
+        for k in here {
+            for m in first..end {
+                if touching(&shape[k], &shape[m]) {
+                    f(k, m);
                 }
             }
         }
-        // Big balls: against each other directly, and against the small balls in the cells their
-        // bounding box (grown by one cell) covers.
-        let shape_of = |i: usize| [positions[i].x, positions[i].y, radii[i]];
-        for (k, &a) in self.big.iter().enumerate() {
-            let sa = shape_of(a as usize);
-            for &b in &self.big[k + 1..] {
-                if touching(&sa, &shape_of(b as usize)) {
-                    f(a as usize, b as usize);
-                }
-            }
-            let p = positions[a as usize];
-            let reach = radii[a as usize] + self.cell;
-            let (x0, y0) = self.cell_coords(p - DVec2::splat(reach));
-            let (x1, y1) = self.cell_coords(p + DVec2::splat(reach));
+    }
+
+    /// Calls `f(k, m)` with the slots of every touching pair that has a big ball: big against big
+    /// directly, big against the small balls in the cells its bounding box (grown by one cell)
+    /// covers. `k` is the big ball's slot.
+    pub fn for_each_big_pair<F: FnMut(usize, usize)>(&self, mut f: F) {
+        let big = self.big_slots();
+        for k in big.clone() {
+            let sa = self.slot_shape[k];
+            self.visit_run(k, (k + 1)..big.end, &mut f);
+            let reach = sa[2] + self.cell;
+            let lo = self.cell_of_point(sa[0] - reach, sa[1] - reach);
+            let hi = self.cell_of_point(sa[0] + reach, sa[1] + reach);
+            let (x0, y0, x1, y1) = (lo % self.cols, lo / self.cols, hi % self.cols, hi / self.cols);
             for cy in y0..=y1 {
-                for cx in x0..=x1 {
-                    for m in self.cell_range(cy * cols + cx) {
-                        if touching(&sa, &shape[m]) {
-                            f(a as usize, entries[m] as usize);
-                        }
-                    }
-                }
+                let row = cy * self.cols;
+                let run = self.cell_start[row + x0] as usize..self.cell_start[row + x1 + 1] as usize;
+                self.visit_run(k, run, &mut f);
             }
         }
+    }
+
+    /// Pairs of slot k with the slots of `run` that touch it.
+    #[inline(always)]
+    fn visit_run<F: FnMut(usize, usize)>(&self, k: usize, run: Range<usize>, f: &mut F) {
+        let sa = self.slot_shape[k];
+        for (m, sb) in self.slot_shape[run.clone()].iter().enumerate() {
+            if touching(&sa, sb) {
+                f(k, run.start + m);
+            }
+        }
+    }
+
+    /// Calls `f(i, j)` once for every pair of balls (indices, not slots) that overlap (centres
+    /// closer than the sum of the radii) at the positions given to the last
+    /// [`BroadPhase::update`]. The order is deterministic: the bands in order, then the seams,
+    /// then the big balls.
+    pub fn for_each_touching_pair<F: FnMut(usize, usize)>(&self, mut f: F) {
+        let slots = &self.slots;
+        let mut g = |k: usize, m: usize| f(slots[k] as usize, slots[m] as usize);
+        for b in 0..self.bands {
+            self.for_each_band_pair(b, &mut g);
+        }
+        for b in 0..self.bands.saturating_sub(1) {
+            self.for_each_seam_pair(b, &mut g);
+        }
+        self.for_each_big_pair(&mut g);
     }
 }

@@ -75,7 +75,7 @@ pub fn attraction_potential_energy(bodies: &Bodies, effects: &Effects) -> f64 {
 pub fn largest_overlap(bodies: &Bodies, field: &Field, scratch: &mut BroadPhase) -> (f64, f64) {
     scratch.update(&bodies.position, &bodies.radius, field.width, field.height);
     let mut worst = (0.0f64, 0.0f64);
-    scratch.for_each_touching_pair(&bodies.position, &bodies.radius, |i, j| {
+    scratch.for_each_touching_pair(|i, j| {
         let reach = bodies.radius[i] + bodies.radius[j];
         let overlap = reach - bodies.position[i].distance(bodies.position[j]);
         if overlap > worst.0 {

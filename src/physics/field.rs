@@ -57,6 +57,14 @@ impl WallImpulses {
         }
     }
 
+    /// Adds another tally, wall by wall.
+    pub fn add_all(&mut self, other: &WallImpulses) {
+        self.left += other.left;
+        self.right += other.right;
+        self.bottom += other.bottom;
+        self.top += other.top;
+    }
+
     pub fn total(&self) -> f64 {
         self.left + self.right + self.bottom + self.top
     }

@@ -69,6 +69,12 @@ impl Forces {
         self.passes.iter().any(|p| matches!(p, ForcePass::Drag(_)))
     }
 
+    /// Whether each ball's acceleration depends only on that ball's own state (no attraction):
+    /// the balls can then be integrated in any grouping with the same bits.
+    pub fn is_local(&self) -> bool {
+        !self.passes.iter().any(|p| matches!(p, ForcePass::Attraction(_)))
+    }
+
     /// True when no force acts at all (vacuum without a pull): the integrators can skip evaluation.
     pub fn is_empty(&self) -> bool {
         self.passes.is_empty()

@@ -69,8 +69,7 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
             }
             broad_phase.update(&bodies.position, &bodies.radius, params.field.width, params.field.height);
             pairs.clear();
-            broad_phase
-                .for_each_touching_pair(&bodies.position, &bodies.radius, |i, j| pairs.push((i as u32, j as u32)));
+            broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
             let inboxes = inboxes.read();
             // A ball has a message in flight when the monitor sent it more than the table says it
             // applied. Its state in this snapshot is then stale with respect to that message, and
