@@ -7,8 +7,11 @@
 //!
 //! 1. **integrate** — the force passes of the enabled effects, inside the chosen integrator;
 //! 2. **broad phase** — the grid finds the touching pairs (only with collisions on);
-//! 3. **contacts** — one normal impulse per approaching pair, overlaps pushed apart;
-//! 4. **walls** — reflect and sum the wall impulses.
+//! 3. **contacts** — one normal impulse per approaching pair, overlaps pushed apart; for
+//!    inelastic contacts under gravity, then one *support pass* from the floor up (see
+//!    `ContactSolver::support_pass`: without it a pile's weight hides in overlaps);
+//! 4. **walls** — reflect and sum the wall impulses (before the contacts when the support pass
+//!    runs, see [`Lockstep::step`]).
 //!
 //! **Threads.** With [`Lockstep::set_threads`] > 1 (the default is every core) and at least
 //! [`PARALLEL_MIN_BALLS`] balls, the phases share the work out over a thread pool: integration
@@ -69,6 +72,8 @@ pub struct StepCounters {
     pub impulses: u64,
     /// Ball–wall contacts.
     pub wall_contacts: u64,
+    /// Pairs the support pass stopped or lifted (inelastic piles under gravity).
+    pub supported: u64,
 }
 
 fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -148,7 +153,12 @@ impl Lockstep {
             wall_impulses: WallImpulses::default(),
             counters: StepCounters::default(),
             scratch: Vec::new(),
-            broad_phase: BroadPhase::new(),
+            broad_phase: {
+                // Pairs left exactly touching by the solver still carry a pile's support.
+                let mut grid = BroadPhase::new();
+                grid.set_margin(crate::physics::SUPPORT_MARGIN);
+                grid
+            },
             contacts: ContactSolver::default(),
             adaptive_substeps: true,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -368,21 +378,41 @@ impl Lockstep {
         self.integrate_phase(h, pool.as_deref());
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        // Inelastic piles under gravity get a support pass after the contacts (see
+        // `ContactSolver::support_pass`); elastic contacts keep their energy exactly and never
+        // need it.
+        let support = self.effects.collisions.is_some_and(|c| c.restitution < 1.0) && gravity != DVec2::ZERO;
+        if support {
+            // The support pass stands the pile on the floor, so the walls go first: a crossing
+            // in free flight is replayed exactly along its path (see `contact_ball_wall`), and
+            // the support pass then puts back what the contacts pushed into a wall.
+            self.walls_phase(pool.as_deref());
+        }
+        let t2 = Instant::now();
+        self.counters.walls += t2 - t1;
         if let Some(collisions) = self.effects.collisions {
             self.broad_phase_phase(pool.as_deref());
-            let t2 = Instant::now();
-            self.counters.broad_phase += t2 - t1;
+            let t3 = Instant::now();
+            self.counters.broad_phase += t3 - t2;
             let (bodies, grid, contacts) = (&mut self.bodies, &self.broad_phase, &mut self.contacts);
             let impulses = in_pool(pool.as_deref(), || {
                 contacts.solve(bodies, grid, collisions.restitution, h, CONTACT_ITERATIONS, pool.is_some())
             });
             self.counters.impulses += impulses;
-            let t3 = Instant::now();
-            self.counters.contacts += t3 - t2;
+            if support {
+                self.counters.supported += contacts.support_pass(bodies, grid, gravity.normalize(), &self.field);
+            }
+            self.counters.contacts += t3.elapsed();
         }
-        let t4 = Instant::now();
-        self.walls_phase(pool.as_deref());
-        self.counters.walls += t4.elapsed();
+        if !support {
+            // Elastic (or weightless) fields: walls after the contacts, so a ball a contact
+            // pushed past a wall is bounced in the same step (the elastic pile keeps its energy
+            // to 1e-13 this way; with the walls first, to 1e-6).
+            let t4 = Instant::now();
+            self.walls_phase(pool.as_deref());
+            self.counters.walls += t4.elapsed();
+        }
     }
 
     /// The force passes inside the integrator. Without attraction every ball's update reads only
@@ -455,6 +485,7 @@ impl Lockstep {
     /// Walls, in chunks of [`CHUNK`] balls; each chunk sums its own wall impulses and the chunks'
     /// sums are added in chunk order, so the total has the same bits on any number of threads.
     fn walls_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
+        // (Counted in `counters.walls` by the caller.)
         let gravity = self.effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
         let key = self.bodies.key_index();
         let (pull, field) = (self.pull, &self.field);

@@ -20,11 +20,13 @@ fn sane(d: &Diagnostics) {
 }
 
 /// Case 1, pile: 1,000 balls under gravity and drag settle over 60 s: never NaN, never outside, total
-/// energy never above its start, and the largest overlap at the end ≤ 3 % of a diameter.
+/// energy never above its start, and at the end the largest overlap ≤ 1 % of a diameter and the
+/// pile at rest (kinetic energy below 1e-4 of the start's total).
 ///
-/// Not yet the 1 % the issue asks for: the worst overlaps (2–2.5 %) sit in the columns of balls
-/// against the side walls, which keep a downward velocity that the position correction hides
-/// instead of removing. More solver passes (16) bring it only to 1.8 %.
+/// What makes it hold: the contact solver's support pass (inelastic contacts under gravity), which
+/// carries the floor's support up through every layer in one sweep. Without it the balls kept a
+/// hidden downward velocity of up to 0.6 m/s that the overlap push hid (overlap 2.5 %, kinetic
+/// ~20 J); with it, measured: overlap 0.18 %, kinetic ~1.5 J of 3.4e5 J.
 #[test]
 fn pile_settles() {
     let scene = hard("pile");
@@ -37,16 +39,18 @@ fn pile_settles() {
         assert!(d.total <= start.total, "t = {}: energy {} above its start {}", e.time(), d.total, start.total);
     }
     let end = e.diagnostics();
-    assert!(end.largest_overlap_ratio <= 0.03, "overlap {} of a diameter", end.largest_overlap_ratio);
-    assert!(end.kinetic < 1e-2 * start.total, "the pile has settled (kinetic {} J)", end.kinetic);
+    assert!(end.largest_overlap_ratio <= 0.01, "overlap {} of a diameter", end.largest_overlap_ratio);
+    assert!(end.kinetic < 1e-4 * start.total, "the pile has settled (kinetic {} J)", end.kinetic);
 }
 
-/// Case 2: Elastic pile: e = 1 everywhere, no drag, leapfrog, 60 s. Bound on the energy drift: 1e-6
+/// Case 2: Elastic pile: e = 1 everywhere, no drag, leapfrog, 60 s. Bound on the energy drift: 1e-9
 /// of the start. Why it can be that tight: leapfrog is exact for constant gravity, a wall bounce is
 /// replayed along the exact parabola, and a collision is replayed from the instant of contact, where
 /// gravity drops out of the relative motion — so nothing but rounding (and the rare push of a
-/// resting overlap) changes the energy. Measured: < 1e-7. The pile must not explode (no ball holds
+/// resting overlap) changes the energy. The pile must not explode (no ball holds
 /// more than all the energy there is) nor creep through the floor (none below its radius).
+/// (Measured: 3e-14. With the walls handled before the contacts — the order the inelastic pile
+/// uses — it was 7e-7: a ball a contact pushed past a wall then waits a step for its bounce.)
 #[test]
 fn elastic_pile_keeps_its_energy() {
     let scene = hard("elastic-pile");
@@ -64,7 +68,7 @@ fn elastic_pile_keeps_its_energy() {
         assert!(b.position.iter().zip(&b.radius).all(|(p, r)| p.y >= r - 1e-9), "a ball crept into the floor");
     }
     eprintln!("elastic pile: worst energy drift {worst:e}");
-    assert!(worst < 1e-6, "energy drift {worst}");
+    assert!(worst < 1e-9, "energy drift {worst}");
 }
 
 /// Case 3: Newton's cradle with 1 mm gaps: the last ball leaves with the first one's speed (± 1 %), the

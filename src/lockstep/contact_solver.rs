@@ -21,7 +21,9 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::physics::{BallId, Bodies, BroadPhase, ContactBody, contact_ball_ball};
+use crate::physics::{
+    BallId, Bodies, BroadPhase, ContactBody, Field, clamp_to_field, contact_ball_ball, contact_supported,
+};
 
 /// Fewest touching pairs for which the contact phase is worked in parallel.
 pub const PARALLEL_MIN_PAIRS: usize = 512;
@@ -47,6 +49,8 @@ pub struct ContactSolver {
     seam_pairs: Vec<Vec<(u32, u32)>>,
     big_pairs: Vec<(u32, u32)>,
     local: SlotBodies,
+    /// The support pass's pairs as (height of the lower ball, ball, ball), sorted.
+    support: Vec<(f64, u32, u32)>,
 }
 
 /// The balls in slot order (only filled for the parallel case).
@@ -197,6 +201,53 @@ impl ContactSolver {
             (*x, *v) = (lx[k], lv[k]);
         });
         impulses
+    }
+}
+
+impl ContactSolver {
+    /// The support pass (for inelastic piles under gravity; see `contact_supported`): balls
+    /// pushed past a wall are put back on it, then every still-touching pair, from the lowest to
+    /// the highest along `down` (the direction of gravity), has its upper ball stopped and lifted
+    /// on its lower one. Serial: each pair depends on the ones below it. Returns the pairs that
+    /// needed it.
+    pub fn support_pass(&mut self, b: &mut Bodies, grid: &BroadPhase, down: DVec2, field: &Field) -> u64 {
+        for i in 0..b.len() {
+            clamp_to_field(&mut b.position[i], &mut b.velocity[i], b.radius[i], field);
+        }
+        let slots = grid.slots();
+        self.support.clear();
+        for list in self.band_pairs.iter().chain(&self.seam_pairs).chain(std::iter::once(&self.big_pairs)) {
+            for &(k, m) in list {
+                let (i, j) = (slots[k as usize], slots[m as usize]);
+                let (hi, hj) = (-down.dot(b.position[i as usize]), -down.dot(b.position[j as usize]));
+                // Lower ball first; the pair order breaks ties, so the order is deterministic.
+                let pair = if hi <= hj { (hi, i, j) } else { (hj, j, i) };
+                self.support.push(pair);
+            }
+        }
+        // Stable: equal heights keep the pair order.
+        self.support.sort_by(|a, c| a.0.total_cmp(&c.0));
+        let mut touched = 0;
+        for &(_, lower, upper) in &self.support {
+            let body = |k: u32| {
+                let k = k as usize;
+                ContactBody {
+                    id: b.id[k],
+                    position: b.position[k],
+                    velocity: b.velocity[k],
+                    inverse_mass: b.inverse_mass[k],
+                    radius: b.radius[k],
+                }
+            };
+            if let Some((dv, shift)) = contact_supported(&body(lower), &body(upper), -down) {
+                let u = upper as usize;
+                b.velocity[u] += dv;
+                b.position[u] += shift;
+                clamp_to_field(&mut b.position[u], &mut b.velocity[u], b.radius[u], field);
+                touched += 1;
+            }
+        }
+        touched
     }
 }
 

@@ -60,8 +60,11 @@ pub struct BroadPhase {
     /// a big ball removed and another added elsewhere).
     layout_radii: Vec<f64>,
     layout_field: (f64, f64),
+    layout_margin: f64,
     /// Occupied cells of the last update, in row-major order (the pair search visits only these).
     occupied: Vec<u32>,
+    /// Relative growth of every radius for the pair test (0: strictly overlapping pairs only).
+    margin: f64,
     /// `occupied[band_occupied[b]..band_occupied[b + 1]]` are the occupied cells of band b.
     band_occupied: Vec<u32>,
 }
@@ -88,9 +91,11 @@ fn count_cells(
 }
 
 /// Puts each grid ball into the next free slot of its cell (`cursor[c]`, advanced).
+#[allow(clippy::too_many_arguments)]
 fn fill_slots(
     positions: &[glam::DVec2],
     radii: &[f64],
+    grow: f64,
     cell_of: &[u32],
     cursor: &mut [u32],
     slots: &mut [u32],
@@ -105,10 +110,12 @@ fn fill_slots(
         cursor[c as usize] += 1;
         slots[slot] = i as u32;
         ball_slot[i] = slot as u32;
-        shape[slot] = [positions[i].x, positions[i].y, radii[i]];
+        shape[slot] = [positions[i].x, positions[i].y, radii[i] * grow];
     }
 }
 
+/// Whether two `(x, y, radius)` shapes overlap; radii are stored grown by the margin (see
+/// [`BroadPhase::set_margin`]).
 #[inline(always)]
 fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
     let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
@@ -120,6 +127,13 @@ impl BroadPhase {
         Self::default()
     }
 
+    /// Also report pairs that are within `margin` (relative to the sum of their radii) of
+    /// touching, e.g. 1e-6 to catch pairs a solver left exactly touching. Takes effect at the
+    /// next update. Grows the radii used for the pair test by that factor.
+    pub fn set_margin(&mut self, margin: f64) {
+        self.margin = margin.max(0.0);
+    }
+
     /// Cell width in metres (for diagnostics).
     pub fn cell_size(&self) -> f64 {
         self.cell
@@ -128,10 +142,15 @@ impl BroadPhase {
     /// Chooses the cell size, the bands and the big balls. Cheap to call every step: it
     /// recomputes only when the set of diameters or the field changed.
     fn layout(&mut self, radii: &[f64], width: f64, height: f64) {
-        if self.cols > 0 && self.layout_field == (width, height) && self.layout_radii == radii {
+        if self.cols > 0
+            && self.layout_field == (width, height)
+            && self.layout_radii == radii
+            && self.layout_margin == self.margin
+        {
             return;
         }
         self.layout_field = (width, height);
+        self.layout_margin = self.margin;
         self.layout_radii.clear();
         self.layout_radii.extend_from_slice(radii);
         let n = radii.len();
@@ -155,7 +174,7 @@ impl BroadPhase {
         // less selective), which keeps the per-step sweep over the cells as cheap as the balls.
         let max_cells = (n + 16) as f64;
         let min_cell = (width * height / max_cells).sqrt();
-        self.cell = cell.max(min_cell).max(f64::MIN_POSITIVE);
+        self.cell = (cell * (1.0 + self.margin)).max(min_cell).max(f64::MIN_POSITIVE);
         self.inverse_cell = 1.0 / self.cell;
         self.cols = ((width / self.cell).ceil() as usize).max(1);
         self.rows = ((height / self.cell).ceil() as usize).max(1);
@@ -207,9 +226,11 @@ impl BroadPhase {
         // Fill, using start[c] as cell c's cursor; afterwards start[c] is the end of cell c,
         // which is the start of cell c + 1: shift back by one cell.
         self.ball_slot.resize(positions.len(), 0);
+        let grow = 1.0 + self.margin;
         fill_slots(
             positions,
             radii,
+            grow,
             &self.cell_of,
             &mut start,
             &mut self.slots,
@@ -221,7 +242,7 @@ impl BroadPhase {
         for (k, &b) in self.big.iter().enumerate() {
             self.slots[grid + k] = b;
             self.ball_slot[b as usize] = (grid + k) as u32;
-            self.slot_shape[grid + k] = [positions[b as usize].x, positions[b as usize].y, radii[b as usize]];
+            self.slot_shape[grid + k] = [positions[b as usize].x, positions[b as usize].y, radii[b as usize] * grow];
         }
         // The occupied cells of each band.
         self.band_occupied.clear();

@@ -88,6 +88,43 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     Some(BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b })
 }
 
+/// Gap (relative to the contact distance) within which [`contact_supported`] still counts two
+/// balls as touching.
+pub const SUPPORT_MARGIN: f64 = 1e-6;
+
+/// A ball rests on another when the line of centres is within 60° of straight up (cos 60° = ½).
+pub const MIN_SUPPORT_SLOPE: f64 = 0.5;
+
+/// The response of `upper` resting on `support` when the support is treated as immovable (the
+/// "shock propagation" of Guendelman, Bridson and Fedkiw 2003): if they approach, the upper
+/// ball's normal velocity is set to the support's (a perfectly inelastic, one-sided impulse), and
+/// it is moved out of the overlap by the whole penetration. Returns the upper ball's
+/// `(velocity change, shift)`, or `None` when they do not touch.
+///
+/// Used for one final pass over a pile's contacts, bottom to top along gravity, after the
+/// ordinary passes: it carries the floor's support up through every layer in one sweep, which
+/// sequential impulses alone need many passes for (see the lockstep contact solver).
+#[inline]
+pub fn contact_supported(support: &ContactBody, upper: &ContactBody, up: DVec2) -> Option<(DVec2, DVec2)> {
+    let d = upper.position - support.position;
+    let reach = support.radius + upper.radius;
+    let dist2 = d.length_squared();
+    // Balls the ordinary passes left just touching (to rounding) still carry the support.
+    let margin = reach * (1.0 + SUPPORT_MARGIN);
+    if dist2 >= margin * margin {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    let normal = if dist > 1e-9 * reach { d / dist } else { coincident_normal(support.id, upper.id) };
+    if normal.dot(up) < MIN_SUPPORT_SLOPE {
+        // Side by side, not one on the other: the ordinary passes' business.
+        return None;
+    }
+    let v_rel = (upper.velocity - support.velocity).dot(normal);
+    let dv = if v_rel < 0.0 { -v_rel * normal } else { DVec2::ZERO };
+    Some((dv, (reach - dist).max(0.0) * normal))
+}
+
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's
 /// surface from the wall (negative: past it), `u` the normal velocity (negative: outwards), `alpha`
 /// the normal component of the ball's constant acceleration during the step. Returns the new
@@ -133,6 +170,26 @@ fn bounce(s: f64, u: f64, alpha: f64, e: f64, mass: f64) -> (f64, f64, f64) {
         }
     }
     (s_new, u_new, impulse)
+}
+
+/// Puts a ball that a contact pushed past a wall back on it, and stops its motion into that wall
+/// (the wall is immovable, the contact inelastic). Returns whether it was past a wall.
+#[inline]
+pub fn clamp_to_field(position: &mut DVec2, velocity: &mut DVec2, radius: f64, field: &Field) -> bool {
+    let (lo_x, hi_x) = (radius, (field.width - radius).max(radius));
+    let (lo_y, hi_y) = (radius, (field.height - radius).max(radius));
+    let mut past = false;
+    if position.x < lo_x {
+        (position.x, velocity.x, past) = (lo_x, velocity.x.max(0.0), true);
+    } else if position.x > hi_x {
+        (position.x, velocity.x, past) = (hi_x, velocity.x.min(0.0), true);
+    }
+    if position.y < lo_y {
+        (position.y, velocity.y, past) = (lo_y, velocity.y.max(0.0), true);
+    } else if position.y > hi_y {
+        (position.y, velocity.y, past) = (hi_y, velocity.y.min(0.0), true);
+    }
+    past
 }
 
 /// Keeps a ball inside the field: a ball past a wall is brought back and, if it was moving into

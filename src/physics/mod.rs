@@ -16,7 +16,10 @@ mod integrator;
 pub use ball::{Ball, BallId, BallKind, disc_area};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
-pub use contact::{BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall};
+pub use contact::{
+    BallBallContact, ContactBody, SUPPORT_MARGIN, clamp_to_field, coincident_normal, contact_ball_ball,
+    contact_ball_wall, contact_supported,
+};
 pub use diagnostics::{
     Diagnostics, attraction_potential_energy, gravity_potential_energy, kinetic_energy, largest_overlap, measure,
     momentum,
