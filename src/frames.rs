@@ -18,7 +18,6 @@ use crate::headless::{
     Engine, HeadlessError, HeadlessOptions, finish_threaded, lockstep_report, runtime_config, steps_for,
     threaded_seconds, threaded_start,
 };
-use crate::lockstep::Lockstep;
 use crate::physics::Bodies;
 use crate::render::{FrameSnapshot, Layout, OffscreenRenderer, RenderError};
 use crate::report::RunReport;
@@ -183,7 +182,7 @@ fn run_lockstep(
     mut rec: Recorder,
 ) -> Result<(RunReport, FramesWritten), FramesError> {
     let steps = steps_for(options.length, scene.dt);
-    let mut engine = Lockstep::new(scene);
+    let mut engine = crate::headless::lockstep_engine(scene, options);
     let start = engine.diagnostics();
     let mut stepping = Duration::ZERO;
     let mut done = 0u64;

@@ -10,8 +10,8 @@ use cpu_time::ProcessTime;
 use crate::lockstep::Lockstep;
 use crate::physics::Integrator;
 use crate::physics::{Bodies, Diagnostics, measure};
-use crate::report::RunReport;
 use crate::report::ThreadedFigures;
+use crate::report::{MemoryUse, RunReport};
 use crate::runtime::{Runtime, RuntimeConfig, RuntimeError};
 use crate::scene::Scene;
 use crate::state_file::{StateFileError, read_state, write_state};
@@ -51,6 +51,8 @@ pub struct HeadlessOptions {
     pub engine: Engine,
     pub state_in: Option<PathBuf>,
     pub state_out: Option<PathBuf>,
+    /// Threads for the lockstep engine (None: every core).
+    pub threads: Option<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -93,11 +95,25 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, Headle
         return run_threaded(&scene, options);
     }
     let steps = steps_for(options.length, scene.dt);
-    let mut engine = Lockstep::new(&scene);
+    let rss_before = MemoryUse::now();
+    let mut engine = lockstep_engine(&scene, options);
     let start = engine.diagnostics();
     let clock = Instant::now();
     engine.run(steps);
-    lockstep_report(&scene, options, &engine, start, steps, clock.elapsed().as_secs_f64())
+    let wall_seconds = clock.elapsed().as_secs_f64();
+    let mut report = lockstep_report(&scene, options, &engine, start, steps, wall_seconds)?;
+    report.memory = MemoryUse::since(rss_before, engine.bodies().len());
+    Ok(report)
+}
+
+/// The lockstep engine for a scene, with the thread count the options ask for. Shared with
+/// `frames`.
+pub(crate) fn lockstep_engine(scene: &Scene, options: &HeadlessOptions) -> Lockstep {
+    let mut engine = Lockstep::new(scene);
+    if let Some(threads) = options.threads {
+        engine.set_threads(threads);
+    }
+    engine
 }
 
 /// The report of a finished lockstep run (writes `--state-out` first). Shared with `frames`.
@@ -129,6 +145,8 @@ pub(crate) fn lockstep_report(
         end,
         phases: Some(*engine.counters()),
         state_hash: Some(format!("{:016x}", engine.state_hash())),
+        threads: Some(engine.threads()),
+        memory: None,
         runtime: None,
     })
 }
@@ -160,11 +178,16 @@ pub(crate) fn threaded_start(scene: &Scene) -> Diagnostics {
 fn run_threaded(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, HeadlessError> {
     let seconds = threaded_seconds(scene, options.length);
     let start = threaded_start(scene);
+    let rss_before = MemoryUse::now();
     let runtime = Runtime::start(scene, runtime_config(scene)).map_err(HeadlessError::Runtime)?;
     let cpu = ProcessTime::now();
     let clock = Instant::now();
     std::thread::sleep(Duration::from_secs_f64(seconds));
-    finish_threaded(scene, options, runtime, start, cpu, clock)
+    // Peak memory is read before the threads are joined (and their stacks freed).
+    let memory = MemoryUse::since(rss_before, scene.balls.len());
+    let mut report = finish_threaded(scene, options, runtime, start, cpu, clock)?;
+    report.memory = memory;
+    Ok(report)
 }
 
 /// Ends a threaded run: pauses (so the snapshot is of balls at rest in time), reads the figures,
@@ -206,6 +229,8 @@ pub(crate) fn finish_threaded(
         end,
         phases: None,
         state_hash: None,
+        threads: None,
+        memory: None,
         runtime: Some(ThreadedFigures {
             stats,
             cpu_seconds,

@@ -97,6 +97,10 @@ struct HeadlessArgs {
     integrator: Option<Integrator>,
     #[arg(long, value_enum, default_value = "lockstep")]
     engine: EngineArg,
+    /// Threads the lockstep engine shares its phases over [default: every core]. The result is
+    /// the same to the bit for any number.
+    #[arg(long, value_name = "N", value_parser = thread_count, allow_negative_numbers = true)]
+    threads: Option<usize>,
     /// Start from this state (CSV: id,kind,x,y,vx,vy,mass,diameter) instead of the scene's balls.
     #[arg(long, value_name = "F.csv")]
     state_in: Option<PathBuf>,
@@ -136,6 +140,11 @@ const MAX_STEPS: u64 = 10_000_000_000;
 fn step_count(s: &str) -> Result<u64, String> {
     let v: u64 = s.parse().map_err(|_| format!("`{s}` is not a whole number of steps (0 or more)"))?;
     if v <= MAX_STEPS { Ok(v) } else { Err(format!("`{s}` is more than {MAX_STEPS} steps")) }
+}
+
+fn thread_count(s: &str) -> Result<usize, String> {
+    let v: usize = s.parse().map_err(|_| format!("`{s}` is not a whole number of threads (1 to 256)"))?;
+    if (1..=256).contains(&v) { Ok(v) } else { Err(format!("`{s}` threads: give 1 to 256")) }
 }
 
 fn time_step(s: &str) -> Result<f64, String> {
@@ -204,6 +213,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 },
                 state_in: args.state_in,
                 state_out: args.state_out,
+                threads: args.threads,
             };
             let report = match &args.frames {
                 None => headless::run(&scene, &options)?,

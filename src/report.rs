@@ -29,8 +29,47 @@ pub struct RunReport {
     pub phases: Option<StepCounters>,
     /// FNV-1a of the final state's bits (lockstep), as 16 hex digits.
     pub state_hash: Option<String>,
+    /// Threads the lockstep engine shared its phases over.
+    pub threads: Option<usize>,
+    /// Memory the engine took (headless runs on Linux).
+    pub memory: Option<MemoryUse>,
     /// The threaded runtime's own figures.
     pub runtime: Option<ThreadedFigures>,
+}
+
+/// Resident memory the engine took: the process's peak resident set (`VmHWM` of
+/// `/proc/self/status`) during the run, less its resident set just before the engine was built,
+/// per ball. Includes everything the engine allocated (state, grid, scratch, pools; for the
+/// threaded runtime the ball threads' stacks and channels).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MemoryUse {
+    pub rss_before_bytes: u64,
+    pub rss_peak_bytes: u64,
+    pub bytes_per_ball: f64,
+}
+
+impl MemoryUse {
+    /// The resident set now, bytes (None where `/proc/self/status` is not there).
+    pub fn now() -> Option<u64> {
+        status_kib("VmRSS:").map(|k| k * 1024)
+    }
+
+    /// The peak since the process started, against `before`, shared over `balls`.
+    pub fn since(before: Option<u64>, balls: usize) -> Option<MemoryUse> {
+        let (before, peak) = (before?, status_kib("VmHWM:")? * 1024);
+        Some(MemoryUse {
+            rss_before_bytes: before,
+            rss_peak_bytes: peak,
+            bytes_per_ball: peak.saturating_sub(before) as f64 / balls.max(1) as f64,
+        })
+    }
+}
+
+/// A `kB` line of `/proc/self/status`.
+fn status_kib(key: &str) -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    line[key.len()..].trim().trim_end_matches("kB").trim().parse().ok()
 }
 
 /// What the threaded runtime measured about itself during a run.
@@ -63,6 +102,18 @@ impl RunReport {
             "ran          {} steps = {:.3} s simulated in {:.3} s wall ({:.0} steps/s)",
             self.steps, self.simulated_seconds, self.wall_seconds, self.steps_per_second
         );
+        if let Some(threads) = self.threads {
+            let _ = writeln!(s, "threads      {threads} (lockstep; the same bits for any number)");
+        }
+        if let Some(m) = &self.memory {
+            let _ = writeln!(
+                s,
+                "memory       {:.0} bytes per ball (peak resident {:.1} MiB, {:.1} MiB before the engine)",
+                m.bytes_per_ball,
+                m.rss_peak_bytes as f64 / 1048576.0,
+                m.rss_before_bytes as f64 / 1048576.0
+            );
+        }
         let _ = writeln!(s, "                   {:>16} {:>16} {:>16}", "kinetic J", "potential J", "total J");
         for (label, d) in [("start", &self.start), ("end", &self.end)] {
             let _ = writeln!(s, "energy {label:<11} {:>16.6e} {:>16.6e} {:>16.6e}", d.kinetic, d.potential, d.total);

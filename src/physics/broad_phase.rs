@@ -60,11 +60,15 @@ pub struct BroadPhase {
     /// a big ball removed and another added elsewhere).
     layout_radii: Vec<f64>,
     layout_field: (f64, f64),
-    layout_margin: f64,
+    layout_margin: (f64, f64),
     /// Occupied cells of the last update, in row-major order (the pair search visits only these).
     occupied: Vec<u32>,
     /// Relative growth of every radius for the pair test (0: strictly overlapping pairs only).
     margin: f64,
+    /// The skin as a fraction of the median diameter, and in metres (see
+    /// [`BroadPhase::set_skin`]).
+    skin_fraction: f64,
+    skin: f64,
     /// `occupied[band_occupied[b]..band_occupied[b + 1]]` are the occupied cells of band b.
     band_occupied: Vec<u32>,
 }
@@ -95,7 +99,7 @@ fn count_cells(
 fn fill_slots(
     positions: &[glam::DVec2],
     radii: &[f64],
-    grow: f64,
+    (grow, skin): (f64, f64),
     cell_of: &[u32],
     cursor: &mut [u32],
     slots: &mut [u32],
@@ -110,12 +114,12 @@ fn fill_slots(
         cursor[c as usize] += 1;
         slots[slot] = i as u32;
         ball_slot[i] = slot as u32;
-        shape[slot] = [positions[i].x, positions[i].y, radii[i] * grow];
+        shape[slot] = [positions[i].x, positions[i].y, radii[i] * grow + skin];
     }
 }
 
-/// Whether two `(x, y, radius)` shapes overlap; radii are stored grown by the margin (see
-/// [`BroadPhase::set_margin`]).
+/// Whether two `(x, y, radius)` shapes overlap; radii are stored grown by the margin and half the
+/// skin (see [`BroadPhase::set_margin`], [`BroadPhase::set_skin`]).
 #[inline(always)]
 fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
     let (dx, dy, reach) = (b[0] - a[0], b[1] - a[1], a[2] + b[2]);
@@ -134,6 +138,18 @@ impl BroadPhase {
         self.margin = margin.max(0.0);
     }
 
+    /// Also report pairs up to a *skin* apart, `skin_fraction` of the median diameter, so that
+    /// the pairs stay a complete list of the touching ones until some ball has moved half the
+    /// skin (a Verlet list): a caller may then skip the search for steps in between.
+    pub fn set_skin(&mut self, skin_fraction: f64) {
+        self.skin_fraction = skin_fraction.max(0.0);
+    }
+
+    /// The skin in metres (after an update).
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
     /// Cell width in metres (for diagnostics).
     pub fn cell_size(&self) -> f64 {
         self.cell
@@ -145,12 +161,12 @@ impl BroadPhase {
         if self.cols > 0
             && self.layout_field == (width, height)
             && self.layout_radii == radii
-            && self.layout_margin == self.margin
+            && self.layout_margin == (self.margin, self.skin_fraction)
         {
             return;
         }
         self.layout_field = (width, height);
-        self.layout_margin = self.margin;
+        self.layout_margin = (self.margin, self.skin_fraction);
         self.layout_radii.clear();
         self.layout_radii.extend_from_slice(radii);
         let n = radii.len();
@@ -158,6 +174,7 @@ impl BroadPhase {
         sorted.sort_by(f64::total_cmp);
         let median_d = if n == 0 { 1.0 } else { 2.0 * sorted[n / 2] };
         let limit = BIG_BALL_FACTOR * median_d;
+        self.skin = self.skin_fraction * median_d;
         self.is_big.clear();
         self.big.clear();
         let mut cell = 0.0f64;
@@ -174,7 +191,7 @@ impl BroadPhase {
         // less selective), which keeps the per-step sweep over the cells as cheap as the balls.
         let max_cells = (n + 16) as f64;
         let min_cell = (width * height / max_cells).sqrt();
-        self.cell = (cell * (1.0 + self.margin)).max(min_cell).max(f64::MIN_POSITIVE);
+        self.cell = (cell * (1.0 + self.margin) + self.skin).max(min_cell).max(f64::MIN_POSITIVE);
         self.inverse_cell = 1.0 / self.cell;
         self.cols = ((width / self.cell).ceil() as usize).max(1);
         self.rows = ((height / self.cell).ceil() as usize).max(1);
@@ -226,11 +243,11 @@ impl BroadPhase {
         // Fill, using start[c] as cell c's cursor; afterwards start[c] is the end of cell c,
         // which is the start of cell c + 1: shift back by one cell.
         self.ball_slot.resize(positions.len(), 0);
-        let grow = 1.0 + self.margin;
+        let (grow, skin) = (1.0 + self.margin, 0.5 * self.skin);
         fill_slots(
             positions,
             radii,
-            grow,
+            (grow, skin),
             &self.cell_of,
             &mut start,
             &mut self.slots,
@@ -242,7 +259,8 @@ impl BroadPhase {
         for (k, &b) in self.big.iter().enumerate() {
             self.slots[grid + k] = b;
             self.ball_slot[b as usize] = (grid + k) as u32;
-            self.slot_shape[grid + k] = [positions[b as usize].x, positions[b as usize].y, radii[b as usize] * grow];
+            self.slot_shape[grid + k] =
+                [positions[b as usize].x, positions[b as usize].y, radii[b as usize] * grow + skin];
         }
         // The occupied cells of each band.
         self.band_occupied.clear();
