@@ -405,10 +405,7 @@ impl Lockstep {
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
         let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        // Inelastic piles under gravity get a support pass after the contacts (see
-        // `ContactSolver::support_pass`); elastic contacts keep their energy exactly and never
-        // need it.
-        let support = self.effects.collisions.is_some_and(|c| c.restitution < 1.0) && gravity != DVec2::ZERO;
+        let support = self.support_direction().is_some();
         if support {
             // The support pass stands the pile on the floor, so the walls go first: a crossing
             // in free flight is replayed exactly along its path (see `contact_ball_wall`), and
@@ -427,7 +424,7 @@ impl Lockstep {
             });
             self.counters.impulses += impulses;
             if support {
-                self.counters.supported += contacts.support_pass(bodies, grid, gravity.normalize(), &self.field);
+                self.counters.supported += contacts.support_pass(bodies, -gravity.normalize(), &self.field);
             }
             self.counters.contacts += t3.elapsed();
         }
@@ -500,6 +497,15 @@ impl Lockstep {
         }
     }
 
+    /// The direction of gravity when the contacts get a support pass: inelastic piles under
+    /// gravity (see `ContactSolver::support_pass`). Elastic contacts keep their energy exactly
+    /// and never need it.
+    fn support_direction(&self) -> Option<DVec2> {
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let inelastic = self.effects.collisions.is_some_and(|c| c.restitution < 1.0);
+        (inelastic && gravity != DVec2::ZERO).then(|| gravity.normalize())
+    }
+
     /// Finds the candidate pairs afresh only when some ball has moved more than half the skin
     /// since the last search (see [`SKIN`]); otherwise the last list still holds every touching
     /// pair and the solver checks each for overlap itself.
@@ -517,9 +523,13 @@ impl Lockstep {
             farthest <= half_skin * half_skin
         };
         if !fresh {
+            let support = self.support_direction();
             self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
             let (grid, contacts) = (&self.broad_phase, &mut self.contacts);
             in_pool(pool, || contacts.find_pairs(grid, pool.is_some()));
+            if let Some(down) = support {
+                contacts.order_support(b, grid, down);
+            }
             self.built_positions.clear();
             self.built_positions.extend_from_slice(&b.position);
             self.grid_stale = false;

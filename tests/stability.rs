@@ -26,7 +26,7 @@ fn sane(d: &Diagnostics) {
 /// What makes it hold: the contact solver's support pass (inelastic contacts under gravity), which
 /// carries the floor's support up through every layer in one sweep. Without it the balls kept a
 /// hidden downward velocity of up to 0.6 m/s that the overlap push hid (overlap 2.5 %, kinetic
-/// ~20 J); with it, measured: overlap 0.18 %, kinetic ~1.5 J of 3.4e5 J.
+/// ~20 J); with it, measured: overlap 0.06 %, kinetic ~0.3 J of 3.4e5 J.
 #[test]
 fn pile_settles() {
     let scene = hard("pile");

@@ -205,42 +205,43 @@ impl ContactSolver {
 }
 
 impl ContactSolver {
-    /// The support pass (for inelastic piles under gravity; see `contact_supported`): balls
-    /// pushed past a wall are put back on it, then every still-touching pair, from the lowest to
-    /// the highest along `down` (the direction of gravity), has its upper ball stopped and lifted
-    /// on its lower one. Serial: each pair depends on the ones below it. Returns the pairs that
-    /// needed it.
-    pub fn support_pass(&mut self, b: &mut Bodies, grid: &BroadPhase, down: DVec2, field: &Field) -> u64 {
-        for i in 0..b.len() {
-            clamp_to_field(&mut b.position[i], &mut b.velocity[i], b.radius[i], field);
-        }
+    /// Orders the pairs for the support pass, lowest first along `down` (the direction of
+    /// gravity). Called when the pairs are found: between two searches the balls move less than
+    /// the broad phase's skin, so the order stays a bottom-to-top order (a pair that turned over
+    /// is skipped by `contact_supported`'s slope test).
+    pub fn order_support(&mut self, b: &Bodies, grid: &BroadPhase, down: DVec2) {
         let slots = grid.slots();
         self.support.clear();
         for list in self.band_pairs.iter().chain(&self.seam_pairs).chain(std::iter::once(&self.big_pairs)) {
             for &(k, m) in list {
                 let (i, j) = (slots[k as usize], slots[m as usize]);
                 let (hi, hj) = (-down.dot(b.position[i as usize]), -down.dot(b.position[j as usize]));
-                // Lower ball first; the pair order breaks ties, so the order is deterministic.
-                let pair = if hi <= hj { (hi, i, j) } else { (hj, j, i) };
-                self.support.push(pair);
+                self.support.push(if hi <= hj { (hi, i, j) } else { (hj, j, i) });
             }
         }
-        // Stable: equal heights keep the pair order.
-        self.support.sort_by(|a, c| a.0.total_cmp(&c.0));
+        // Every (lower, upper) is a different pair, so the order is total: deterministic.
+        self.support.sort_unstable_by(|a, c| a.0.total_cmp(&c.0).then(a.1.cmp(&c.1)).then(a.2.cmp(&c.2)));
+    }
+
+    /// The support pass (for inelastic piles under gravity; see `contact_supported`): balls
+    /// pushed past a wall are put back on it, then every still-touching pair, in the order of
+    /// [`ContactSolver::order_support`], has its upper ball stopped and lifted on its lower one.
+    /// Serial: each pair depends on the ones below it. Returns the pairs that needed it.
+    pub fn support_pass(&self, b: &mut Bodies, up: DVec2, field: &Field) -> u64 {
+        for i in 0..b.len() {
+            clamp_to_field(&mut b.position[i], &mut b.velocity[i], b.radius[i], field);
+        }
         let mut touched = 0;
         for &(_, lower, upper) in &self.support {
-            let body = |k: u32| {
-                let k = k as usize;
-                ContactBody {
-                    id: b.id[k],
-                    position: b.position[k],
-                    velocity: b.velocity[k],
-                    inverse_mass: b.inverse_mass[k],
-                    radius: b.radius[k],
-                }
+            let (l, u) = (lower as usize, upper as usize);
+            let body = |k: usize| ContactBody {
+                id: b.id[k],
+                position: b.position[k],
+                velocity: b.velocity[k],
+                inverse_mass: b.inverse_mass[k],
+                radius: b.radius[k],
             };
-            if let Some((dv, shift)) = contact_supported(&body(lower), &body(upper), -down) {
-                let u = upper as usize;
+            if let Some((dv, shift)) = contact_supported(&body(l), &body(u), up) {
                 b.velocity[u] += dv;
                 b.position[u] += shift;
                 clamp_to_field(&mut b.position[u], &mut b.velocity[u], b.radius[u], field);
