@@ -46,6 +46,13 @@ pub const MAX_TRAVEL: f64 = 0.5;
 pub const CONTACT_ITERATIONS: usize = 4;
 /// Most sub-steps one step is split into.
 pub const MAX_SUBSTEPS: u32 = 4096;
+/// Fastest a ball may move, m/s: a guard rail, not physics. A field whose dynamics are faster
+/// than even [`MAX_SUBSTEPS`] sub-steps resolve (a 1 g ball of 2 m thrown into stiff drag, a
+/// pair of 1e6 kg grains orbiting at 1e7 rad/s with G = 1) can still run away under an explicit
+/// integrator; its speeds are then capped here (and counted in [`StepCounters::speed_limited`])
+/// so the state stays finite. No scene a person plays comes near it (the hard cases top out at
+/// 2,000 m/s), and a run that hits it says so in its report.
+pub const MAX_SPEED: f64 = 1e5;
 /// Fewest balls for which the phases are shared out over threads (below it, one thread is faster
 /// than the hand-over).
 pub const PARALLEL_MIN_BALLS: usize = 4096;
@@ -81,6 +88,8 @@ pub struct StepCounters {
     pub wall_contacts: u64,
     /// Pairs the support pass stopped or lifted (inelastic piles under gravity).
     pub supported: u64,
+    /// Times a ball's speed was capped at [`MAX_SPEED`] (0 in every sane field).
+    pub speed_limited: u64,
 }
 
 fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -338,12 +347,17 @@ impl Lockstep {
         // equal sub-steps (at most MAX_SUBSTEPS). Ordinary fields pay one pass over the speeds.
         // The split is re-judged before every sub-step, over the time left: a collision in the
         // middle of a step can make a ball fast, or drag on a light ball stiff, at once.
+        // No sub-step is shorter than dt / MAX_SUBSTEPS, so a step takes at most MAX_SUBSTEPS of
+        // them (+1 for a rounding crumb) — and never ends on one long remainder, which is what
+        // capping the *count* did: a field that wanted more than the cap all the way through then
+        // spent its last sub-step on a third of dt and blew up (found by tests/fuzz.rs).
+        let shortest = self.dt / MAX_SUBSTEPS as f64;
         let mut remaining = self.dt;
         let mut taken = 0u32;
         while remaining > 0.0 {
-            let n = if self.adaptive_substeps && taken < MAX_SUBSTEPS { self.substeps_needed(remaining) } else { 1 };
-            // For n = 1, h is exactly what is left and `remaining` becomes exactly zero.
-            let h = if n == 1 { remaining } else { remaining / n as f64 };
+            let n = if self.adaptive_substeps { self.substeps_needed(remaining) } else { 1 };
+            // The last sub-step is exactly what is left, so `remaining` becomes exactly zero.
+            let h = if n == 1 { remaining } else { (remaining / n as f64).max(shortest).min(remaining) };
             self.substep(h);
             remaining -= h;
             taken += 1;
@@ -428,6 +442,7 @@ impl Lockstep {
             }
             self.counters.contacts += t3.elapsed();
         }
+        self.limit_speeds();
         if !support {
             // Elastic (or weightless) fields: walls after the contacts, so a ball a contact
             // pushed past a wall is bounced in the same step (the elastic pile keeps its energy
@@ -495,6 +510,21 @@ impl Lockstep {
                 .enumerate()
                 .for_each(|(c, ((x, v), scratch))| chunk(c, x, v, scratch)),
         }
+    }
+
+    /// Caps every speed at [`MAX_SPEED`] (a guard rail for fields faster than the sub-steps can
+    /// resolve; see there). One pass over the velocities, which the step reads anyway.
+    fn limit_speeds(&mut self) {
+        let mut limited = 0;
+        for v in &mut self.bodies.velocity {
+            let speed2 = v.length_squared();
+            // A NaN fails the first test too, and becomes zero rather than spreading.
+            if speed2.is_nan() || speed2 > MAX_SPEED * MAX_SPEED {
+                *v = if speed2.is_finite() { *v * (MAX_SPEED / speed2.sqrt()) } else { DVec2::ZERO };
+                limited += 1;
+            }
+        }
+        self.counters.speed_limited += limited;
     }
 
     /// The direction of gravity when the contacts get a support pass: inelastic piles under

@@ -110,14 +110,26 @@ fn random_effects() -> impl Strategy<Value = Effects> {
     })
 }
 
+/// Cases of the random-field property per run: 100 in CI (about 25 s: the stiffest fields take
+/// every one of the 4,096 sub-steps a step allows); `BALLFIELD_FUZZ_CASES=3000` by hand.
+fn random_field_cases() -> u32 {
+    std::env::var("BALLFIELD_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(100)
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 200, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: random_field_cases(), failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Random balls from 1 mm to 3 m, 1 g to 1e6 kg, up to 400 m/s, overlapping as they fall,
     /// under random effects (attraction with G = 1: stiff pairs) and integrators: 50 steps
     /// without NaN or escape.
+    ///
+    /// Findings so far, each fixed in the shared mechanism: stiff drag on a light, large, fast
+    /// ball and close pairs under strong attraction blew up explicit steps (now sub-stepped,
+    /// re-judged before every sub-step); a field that wanted more than the sub-step cap all the
+    /// way through spent its last sub-step on a third of dt and blew up (sub-steps now have a
+    /// floor of dt / 4,096 instead of a count cap); fields faster than even that floor resolves
+    /// could still run away under explicit Euler (speeds now capped at `MAX_SPEED`, counted).
     #[test]
-    #[ignore = "open finding: some random fields still end with a NaN ball or take minutes; run by hand"]
     fn random_fields_stay_finite_and_inside(
         balls in (1usize..40).prop_flat_map(|n| {
             let field = Field { width: 20.0, height: 10.0, restitution: 1.0 };
