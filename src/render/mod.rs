@@ -11,11 +11,12 @@ mod layout;
 mod offscreen;
 mod renderer;
 mod snapshot;
+mod splat;
 
 pub use gpu::{Gpu, instance_descriptor, raise_render_priority};
 pub use layout::{Layout, MARGIN_PX, PIXELS_PER_METRE};
 pub use offscreen::{OFFSCREEN_FORMAT, Offscreen};
-pub use renderer::{BallPath, Renderer};
+pub use renderer::{BallPath, Renderer, SPLAT_MAX_RADIUS_PX};
 pub use snapshot::{BallSprite, BallStyle, FrameSnapshot, Segment, ball_colour, palette, rgba, with_style};
 
 /// Why drawing failed.

@@ -3,11 +3,25 @@
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
+use super::layout::Layout;
 use super::snapshot::{BallSprite, FrameSnapshot, Segment, palette};
+use super::splat::{PixelRect, Splatter};
 
-/// How the balls reach the vertex shader. Both draw the same pixels (see `shaders/balls.wgsl`).
+/// How the balls are drawn. Every path draws the same discs (see `shaders/balls.wgsl` and
+/// `shaders/splat.wgsl`); they differ in what they cost.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BallPath {
+    /// The default: each ball by its size on screen. Balls of at most [`SPLAT_MAX_RADIUS_PX`]
+    /// are splatted (see [`BallPath::Splat`]), larger ones drawn as [`BallPath::Triangles`], over
+    /// the splatted ones. On a device without compute shaders, all are triangles.
+    Auto,
+    /// Every ball splatted by a compute shader into a buffer of per-pixel sums, blended over the
+    /// frame by one rectangle: no primitive per ball. A CPU rasteriser pays about 1 µs for each
+    /// primitive (setup, binning, a fragment-shader call per 4×4 block) however small, and the
+    /// splat about 20 ns per covered pixel, so it wins for balls a few pixels across (100,000
+    /// of them: see benches/render.rs) and loses for large ones. Falls back to
+    /// [`BallPath::Triangles`] on a device without compute shaders.
+    Splat,
     /// One instance per ball, a 4-vertex triangle strip each.
     Instanced,
     /// One non-instanced indexed draw, every ball's data repeated on its 4 vertices.
@@ -17,11 +31,23 @@ pub enum BallPath {
     /// all the vertices in wide SIMD batches instead. The price is 4× the upload (64 bytes a
     /// ball), negligible next to that.
     Expanded,
-    /// The default: one non-instanced draw of one triangle (3 vertices) per ball, the
-    /// equilateral triangle around the disc. Half the triangles of a quad for about 30% more
-    /// pixels; on a CPU rasteriser the per-triangle setup is what costs, so this is the fastest
-    /// at 1,000 and at 10,000 balls (see benches/render.rs).
+    /// One non-instanced draw of one triangle (3 vertices) per ball, the equilateral triangle
+    /// around the disc. Half the triangles of a quad for about 30% more pixels; on a CPU
+    /// rasteriser the per-triangle setup is what costs, so this is the fastest way to draw
+    /// balls as primitives.
     Triangles,
+}
+
+/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats.
+pub const SPLAT_MAX_RADIUS_PX: f32 = 4.0;
+
+/// How a frame's balls are drawn (see `Renderer::sort_balls`).
+#[derive(Clone, Copy, Debug)]
+enum Split {
+    /// All as primitives, straight from the snapshot.
+    AllPrimitives,
+    /// The small ones splatted over `splat` (`None`: none on the target), the rest as primitives.
+    Sorted { splat: Option<PixelRect> },
 }
 
 /// The uniform both shaders read (see `struct Globals` in them).
@@ -35,16 +61,16 @@ struct Globals {
     _pad: [f32; 2],
 }
 
-/// A growable GPU vertex (or index) buffer.
-struct GrowBuffer {
-    buffer: wgpu::Buffer,
+/// A growable GPU buffer (vertices, indices, storage).
+pub(super) struct GrowBuffer {
+    pub(super) buffer: wgpu::Buffer,
     capacity: u64,
     usage: wgpu::BufferUsages,
     label: &'static str,
 }
 
 impl GrowBuffer {
-    fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages, capacity: u64) -> Self {
+    pub(super) fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages, capacity: u64) -> Self {
         let usage = usage | wgpu::BufferUsages::COPY_DST;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
@@ -55,21 +81,30 @@ impl GrowBuffer {
         GrowBuffer { buffer, capacity, usage, label }
     }
 
-    /// Writes `data` at the start, growing (to the next power of two) if it does not fit.
-    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[u8]) {
-        let need = data.len() as u64;
-        if need > self.capacity {
-            self.capacity = need.next_power_of_two();
-            self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(self.label),
-                size: self.capacity,
-                usage: self.usage,
-                mapped_at_creation: false,
-            });
+    /// Makes room for `need` bytes (growing to the next power of two; the contents are lost
+    /// then). Returns whether the buffer is a new one.
+    pub(super) fn reserve(&mut self, device: &wgpu::Device, need: u64) -> bool {
+        if need <= self.capacity {
+            return false;
         }
-        if need > 0 {
+        self.capacity = need.next_power_of_two();
+        self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(self.label),
+            size: self.capacity,
+            usage: self.usage,
+            mapped_at_creation: false,
+        });
+        true
+    }
+
+    /// Writes `data` at the start, growing if it does not fit. Returns whether the buffer is a
+    /// new one.
+    pub(super) fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[u8]) -> bool {
+        let grew = self.reserve(device, data.len() as u64);
+        if !data.is_empty() {
             queue.write_buffer(&self.buffer, 0, data);
         }
+        grew
     }
 }
 
@@ -90,8 +125,12 @@ pub struct Renderer {
     index_buffer: GrowBuffer,
     indexed_balls: u32,
     segment_buffer: GrowBuffer,
+    /// `None` when the device has no compute shaders.
+    splatter: Option<Splatter>,
     // Scratch, kept between frames.
     expanded: Vec<BallSprite>,
+    small: Vec<BallSprite>,
+    large: Vec<BallSprite>,
     segment_scratch: Vec<Segment>,
 }
 
@@ -214,7 +253,7 @@ impl Renderer {
             device: device.clone(),
             queue: queue.clone(),
             format,
-            path: BallPath::Triangles,
+            path: BallPath::Auto,
             globals,
             bind_group,
             balls_strip,
@@ -226,7 +265,10 @@ impl Renderer {
             index_buffer: GrowBuffer::new(device, "ball indices", wgpu::BufferUsages::INDEX, 4),
             indexed_balls: 0,
             segment_buffer: GrowBuffer::new(device, "segments", vertex, 16 * 1024),
+            splatter: Splatter::new(device, format),
             expanded: Vec::new(),
+            small: Vec::new(),
+            large: Vec::new(),
             segment_scratch: Vec::new(),
         }
     }
@@ -240,9 +282,15 @@ impl Renderer {
         self.path
     }
 
-    /// Chooses how balls are fed to the GPU (for benches; the default is the faster one).
+    /// Chooses how balls are drawn (for benches and tests; the default, [`BallPath::Auto`],
+    /// picks the faster way for each ball).
     pub fn set_ball_path(&mut self, path: BallPath) {
         self.path = path;
+    }
+
+    /// Whether this renderer's device can splat balls (compute shaders and storage buffers).
+    pub fn can_splat(&self) -> bool {
+        self.splatter.is_some()
     }
 
     /// Draws `snapshot` into `view` (cleared first) and submits the work.
@@ -289,14 +337,27 @@ impl Renderer {
         self.segment_scratch.extend_from_slice(&snapshot.overlays);
         self.segment_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.segment_scratch));
 
-        let n = snapshot.balls.len() as u32;
-        match self.path {
+        // Which balls are splatted and which drawn as primitives, and the pixels the splat covers.
+        let split = self.sort_balls(snapshot, &layout, size.width, size.height);
+        if let (Split::Sorted { splat: Some(rect) }, Some(splatter)) = (split, &mut self.splatter) {
+            splatter.prepare(&self.device, &self.queue, encoder, &self.globals, &self.small, rect);
+        }
+        let large = match split {
+            Split::AllPrimitives => &snapshot.balls,
+            Split::Sorted { .. } => &self.large,
+        };
+        let n = large.len() as u32;
+        let raster = match self.path {
+            BallPath::Instanced | BallPath::Expanded => self.path,
+            _ => BallPath::Triangles,
+        };
+        match raster {
             BallPath::Instanced => {
-                self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&snapshot.balls));
+                self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(large));
             }
             BallPath::Expanded => {
                 self.expanded.clear();
-                self.expanded.extend(snapshot.balls.iter().flat_map(|b| [*b; 4]));
+                self.expanded.extend(large.iter().flat_map(|b| [*b; 4]));
                 self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
                 if n > self.indexed_balls {
                     // Indices only change when the count grows past what they cover.
@@ -306,9 +367,9 @@ impl Renderer {
                     self.indexed_balls = cover;
                 }
             }
-            BallPath::Triangles => {
+            _ => {
                 self.expanded.clear();
-                self.expanded.extend(snapshot.balls.iter().flat_map(|b| [*b; 3]));
+                self.expanded.extend(large.iter().flat_map(|b| [*b; 3]));
                 self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
             }
         }
@@ -336,8 +397,14 @@ impl Renderer {
         pass.set_pipeline(&self.background);
         pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
         pass.draw(0..4, 0..background);
+        if let Some(splatter) = &mut self.splatter {
+            // Nothing unless `prepare` ran this frame. It binds its own group 0: the globals'
+            // group is bound again below.
+            splatter.resolve(&mut pass);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+        }
         if n > 0 {
-            match self.path {
+            match raster {
                 BallPath::Instanced => {
                     pass.set_pipeline(&self.balls_strip);
                     pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
@@ -349,7 +416,7 @@ impl Renderer {
                     pass.set_index_buffer(self.index_buffer.buffer.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(0..6 * n, 0, 0..1);
                 }
-                BallPath::Triangles => {
+                _ => {
                     pass.set_pipeline(&self.balls_triangles);
                     pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
                     pass.draw(0..3 * n, 0..1);
@@ -362,6 +429,52 @@ impl Renderer {
             pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
             pass.draw(0..4, background..background + overlays);
         }
+    }
+
+    /// Splits the snapshot's balls for this frame: those to splat into `self.small`, the rest into
+    /// `self.large`, each in their order.
+    fn sort_balls(&mut self, snapshot: &FrameSnapshot, layout: &Layout, width: u32, height: u32) -> Split {
+        self.small.clear();
+        self.large.clear();
+        let limit = match self.path {
+            _ if self.splatter.is_none() || snapshot.balls.is_empty() => return Split::AllPrimitives,
+            BallPath::Auto => SPLAT_MAX_RADIUS_PX / layout.scale as f32,
+            BallPath::Splat => f32::INFINITY,
+            BallPath::Instanced | BallPath::Expanded | BallPath::Triangles => return Split::AllPrimitives,
+        };
+        // The splatted balls' extent, m: x0, y0, x1, y1.
+        let mut extent = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+        for b in &snapshot.balls {
+            if b.radius <= limit {
+                extent[0] = extent[0].min(b.x - b.radius);
+                extent[1] = extent[1].min(b.y - b.radius);
+                extent[2] = extent[2].max(b.x + b.radius);
+                extent[3] = extent[3].max(b.y + b.radius);
+                self.small.push(*b);
+            } else {
+                self.large.push(*b);
+            }
+        }
+        if self.small.is_empty() {
+            return Split::Sorted { splat: None };
+        }
+        // To pixels (y down), one pixel of anti-aliased edge around, inside the target.
+        let scale = layout.scale as f32;
+        let (ox, oy) = (layout.origin.x as f32, layout.origin.y as f32);
+        let x0 = ((ox + extent[0] * scale).floor() - 1.0).max(0.0);
+        let x1 = ((ox + extent[2] * scale).ceil() + 1.0).min(width as f32);
+        let y0 = ((oy - extent[3] * scale).floor() - 1.0).max(0.0);
+        let y1 = ((oy - extent[1] * scale).ceil() + 1.0).min(height as f32);
+        let rect = [x0 as i32, y0 as i32, (x1 - x0) as i32, (y1 - y0) as i32];
+        if rect[2] <= 0 || rect[3] <= 0 {
+            // The small balls are all off the target.
+            return Split::Sorted { splat: None };
+        }
+        if !Splatter::fits(&self.device, rect) {
+            // A target too large for one storage binding: primitives after all.
+            return Split::AllPrimitives;
+        }
+        Split::Sorted { splat: Some(rect) }
     }
 }
 
