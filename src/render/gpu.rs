@@ -62,7 +62,8 @@ impl Gpu {
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("ballfield"),
-            required_limits: required_limits(&adapter),
+            // What the adapter can do, so GL's lower limits are no problem.
+            required_limits: wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
@@ -74,26 +75,6 @@ impl Gpu {
     pub fn describe(&self) -> String {
         describe(&self.adapter)
     }
-}
-
-/// WebGL2's limits, raised to what the adapter can do for the texture size and, when it has compute
-/// shaders and storage buffers in fragment shaders, for the small balls' splat (`splat.rs`), so
-/// GL's lower limits are no problem.
-fn required_limits(adapter: &wgpu::Adapter) -> wgpu::Limits {
-    let have = adapter.limits();
-    let mut limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(have.clone());
-    let flags = adapter.get_downlevel_capabilities().flags;
-    if flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::FRAGMENT_STORAGE) {
-        limits.max_storage_buffers_per_shader_stage = have.max_storage_buffers_per_shader_stage.min(4);
-        limits.max_storage_buffer_binding_size = have.max_storage_buffer_binding_size;
-        limits.max_buffer_size = have.max_buffer_size;
-        limits.max_compute_invocations_per_workgroup = have.max_compute_invocations_per_workgroup.min(256);
-        limits.max_compute_workgroup_size_x = have.max_compute_workgroup_size_x.min(256);
-        limits.max_compute_workgroup_size_y = have.max_compute_workgroup_size_y.min(256);
-        limits.max_compute_workgroup_size_z = have.max_compute_workgroup_size_z.min(64);
-        limits.max_compute_workgroups_per_dimension = have.max_compute_workgroups_per_dimension.min(65_535);
-    }
-    limits
 }
 
 fn describe(adapter: &wgpu::Adapter) -> String {

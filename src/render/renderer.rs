@@ -1,26 +1,28 @@
 //! The renderer: one `render(view, snapshot)` path for the window and the offscreen target.
 
 use bytemuck::{Pod, Zeroable};
+use glam::DVec2;
 use wgpu::util::DeviceExt;
 
 use super::layout::Layout;
 use super::snapshot::{BallSprite, FrameSnapshot, Segment, palette};
-use super::splat::{PixelRect, Splatter};
+use super::splat::{PixelOrder, PixelRect, Placement, Splat};
 
 /// How the balls are drawn. Every path draws the same discs (see `shaders/balls.wgsl` and
-/// `shaders/splat.wgsl`); they differ in what they cost.
+/// `src/render/splat.rs`); they differ in what they cost.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BallPath {
-    /// The default: each ball by its size on screen. Balls of at most [`SPLAT_MAX_RADIUS_PX`]
-    /// are splatted (see [`BallPath::Splat`]), larger ones drawn as [`BallPath::Triangles`], over
-    /// the splatted ones. On a device without compute shaders, all are triangles.
+    /// The default: on a CPU adapter (Mesa's lavapipe or llvmpipe), once a frame has at least
+    /// [`SPLAT_MIN_BALLS`] balls of at most [`SPLAT_MAX_RADIUS_PX`] on screen, those are
+    /// splatted (see [`BallPath::Splat`]) and larger ones drawn as [`BallPath::Triangles`] over
+    /// them. Otherwise, and on a real GPU, all are triangles.
     Auto,
-    /// Every ball splatted by a compute shader into a buffer of per-pixel sums, blended over the
-    /// frame by one rectangle: no primitive per ball. A CPU rasteriser pays about 1 µs for each
-    /// primitive (setup, binning, a fragment-shader call per 4×4 block) however small, and the
-    /// splat about 20 ns per covered pixel, so it wins for balls a few pixels across (100,000
-    /// of them: see benches/render.rs) and loses for large ones. Falls back to
-    /// [`BallPath::Triangles`] on a device without compute shaders.
+    /// Every ball splatted: the field's pixels computed on the CPU, four pixels at a time, and
+    /// written into the target with one texture write; no primitive per ball. A CPU rasteriser
+    /// pays about 1 µs for each primitive however small, the splat a few nanoseconds per
+    /// pixel, so it wins by far for 100,000 balls 1.6 px across (see benches/render.rs) and
+    /// loses for very large ones. Needs a target with `COPY_DST` usage in `Rgba8Unorm` or
+    /// `Bgra8Unorm`; other targets get [`BallPath::Triangles`].
     Splat,
     /// One instance per ball, a 4-vertex triangle strip each.
     Instanced,
@@ -39,15 +41,20 @@ pub enum BallPath {
 }
 
 /// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats.
-pub const SPLAT_MAX_RADIUS_PX: f32 = 4.0;
+pub const SPLAT_MAX_RADIUS_PX: f32 = 8.0;
+
+/// The fewest small balls for which [`BallPath::Auto`] splats: below, the splat's fixed cost
+/// (filling and writing the field's pixels) is more than the triangles'.
+pub const SPLAT_MIN_BALLS: usize = 200;
 
 /// How a frame's balls are drawn (see `Renderer::sort_balls`).
 #[derive(Clone, Copy, Debug)]
 enum Split {
-    /// All as primitives, straight from the snapshot.
+    /// All as primitives, straight from the snapshot, over a cleared target.
     AllPrimitives,
-    /// The small ones splatted over `splat` (`None`: none on the target), the rest as primitives.
-    Sorted { splat: Option<PixelRect> },
+    /// The small ones splatted into `rect` (the field, its pixels all written by the splat), the
+    /// rest as primitives.
+    Splatted { rect: PixelRect, order: PixelOrder },
 }
 
 /// The uniform both shaders read (see `struct Globals` in them).
@@ -125,8 +132,9 @@ pub struct Renderer {
     index_buffer: GrowBuffer,
     indexed_balls: u32,
     segment_buffer: GrowBuffer,
-    /// `None` when the device has no compute shaders.
-    splatter: Option<Splatter>,
+    /// The adapter is a CPU (Mesa's lavapipe or llvmpipe): [`BallPath::Auto`] splats.
+    cpu_adapter: bool,
+    splat: Splat,
     // Scratch, kept between frames.
     expanded: Vec<BallSprite>,
     small: Vec<BallSprite>,
@@ -265,7 +273,8 @@ impl Renderer {
             index_buffer: GrowBuffer::new(device, "ball indices", wgpu::BufferUsages::INDEX, 4),
             indexed_balls: 0,
             segment_buffer: GrowBuffer::new(device, "segments", vertex, 16 * 1024),
-            splatter: Splatter::new(device, format),
+            cpu_adapter: device.adapter_info().device_type == wgpu::DeviceType::Cpu,
+            splat: Splat::default(),
             expanded: Vec::new(),
             small: Vec::new(),
             large: Vec::new(),
@@ -286,11 +295,6 @@ impl Renderer {
     /// picks the faster way for each ball).
     pub fn set_ball_path(&mut self, path: BallPath) {
         self.path = path;
-    }
-
-    /// Whether this renderer's device can splat balls (compute shaders and storage buffers).
-    pub fn can_splat(&self) -> bool {
-        self.splatter.is_some()
     }
 
     /// Draws `snapshot` into `view` (cleared first) and submits the work.
@@ -337,14 +341,17 @@ impl Renderer {
         self.segment_scratch.extend_from_slice(&snapshot.overlays);
         self.segment_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.segment_scratch));
 
-        // Which balls are splatted and which drawn as primitives, and the pixels the splat covers.
-        let split = self.sort_balls(snapshot, &layout, size.width, size.height);
-        if let (Split::Sorted { splat: Some(rect) }, Some(splatter)) = (split, &mut self.splatter) {
-            splatter.prepare(&self.device, &self.queue, encoder, &self.globals, &self.small, rect);
+        // Which balls are splatted, which drawn as primitives.
+        let split = self.sort_balls(snapshot, &layout, view.texture());
+        if let Split::Splatted { rect, order } = split {
+            let place =
+                Placement { scale: globals.scale, origin: [globals.origin[0], size.height as f32 - globals.origin[1]] };
+            self.splat.draw(&self.small, place, rect, order);
+            self.splat.upload(&self.queue, view.texture());
         }
         let large = match split {
             Split::AllPrimitives => &snapshot.balls,
-            Split::Sorted { .. } => &self.large,
+            Split::Splatted { .. } => &self.large,
         };
         let n = large.len() as u32;
         let raster = match self.path {
@@ -380,13 +387,19 @@ impl Renderer {
         } else {
             wgpu::Color { r, g, b, a: 1.0 }
         };
+        // After a splat the field's pixels are in the target already (written by the queue before
+        // this pass runs), and the bands below cover every pixel outside the field.
+        let load = match split {
+            Split::AllPrimitives => wgpu::LoadOp::Clear(clear),
+            Split::Splatted { .. } => wgpu::LoadOp::Load,
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("ballfield"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                 view,
                 depth_slice: None,
                 resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
             })],
             depth_stencil_attachment: None,
             timestamp_writes: None,
@@ -397,12 +410,6 @@ impl Renderer {
         pass.set_pipeline(&self.background);
         pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
         pass.draw(0..4, 0..background);
-        if let Some(splatter) = &mut self.splatter {
-            // Nothing unless `prepare` ran this frame. It binds its own group 0: the globals'
-            // group is bound again below.
-            splatter.resolve(&mut pass);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-        }
         if n > 0 {
             match raster {
                 BallPath::Instanced => {
@@ -431,50 +438,38 @@ impl Renderer {
         }
     }
 
-    /// Splits the snapshot's balls for this frame: those to splat into `self.small`, the rest into
-    /// `self.large`, each in their order.
-    fn sort_balls(&mut self, snapshot: &FrameSnapshot, layout: &Layout, width: u32, height: u32) -> Split {
+    /// Chooses how this frame's balls are drawn; for a splat, puts the balls to splat into
+    /// `self.small` and the rest into `self.large`, each in their order.
+    fn sort_balls(&mut self, snapshot: &FrameSnapshot, layout: &Layout, target: &wgpu::Texture) -> Split {
         self.small.clear();
         self.large.clear();
         let limit = match self.path {
-            _ if self.splatter.is_none() || snapshot.balls.is_empty() => return Split::AllPrimitives,
-            BallPath::Auto => SPLAT_MAX_RADIUS_PX / layout.scale as f32,
+            BallPath::Auto if self.cpu_adapter => SPLAT_MAX_RADIUS_PX / layout.scale as f32,
             BallPath::Splat => f32::INFINITY,
-            BallPath::Instanced | BallPath::Expanded | BallPath::Triangles => return Split::AllPrimitives,
+            _ => return Split::AllPrimitives,
         };
-        // The splatted balls' extent, m: x0, y0, x1, y1.
-        let mut extent = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-        for b in &snapshot.balls {
-            if b.radius <= limit {
-                extent[0] = extent[0].min(b.x - b.radius);
-                extent[1] = extent[1].min(b.y - b.radius);
-                extent[2] = extent[2].max(b.x + b.radius);
-                extent[3] = extent[3].max(b.y + b.radius);
-                self.small.push(*b);
-            } else {
-                self.large.push(*b);
-            }
-        }
-        if self.small.is_empty() {
-            return Split::Sorted { splat: None };
-        }
-        // To pixels (y down), one pixel of anti-aliased edge around, inside the target.
-        let scale = layout.scale as f32;
-        let (ox, oy) = (layout.origin.x as f32, layout.origin.y as f32);
-        let x0 = ((ox + extent[0] * scale).floor() - 1.0).max(0.0);
-        let x1 = ((ox + extent[2] * scale).ceil() + 1.0).min(width as f32);
-        let y0 = ((oy - extent[3] * scale).floor() - 1.0).max(0.0);
-        let y1 = ((oy - extent[1] * scale).ceil() + 1.0).min(height as f32);
-        let rect = [x0 as i32, y0 as i32, (x1 - x0) as i32, (y1 - y0) as i32];
-        if rect[2] <= 0 || rect[3] <= 0 {
-            // The small balls are all off the target.
-            return Split::Sorted { splat: None };
-        }
-        if !Splatter::fits(&self.device, rect) {
-            // A target too large for one storage binding: primitives after all.
+        let Some(order) = PixelOrder::of(target.format()) else { return Split::AllPrimitives };
+        if !target.usage().contains(wgpu::TextureUsages::COPY_DST) {
             return Split::AllPrimitives;
         }
-        Split::Sorted { splat: Some(rect) }
+        let small = snapshot.balls.iter().filter(|b| b.radius <= limit).count();
+        if small == 0 || (self.path == BallPath::Auto && small < SPLAT_MIN_BALLS) {
+            return Split::AllPrimitives;
+        }
+        for b in &snapshot.balls {
+            if b.radius <= limit { self.small.push(*b) } else { self.large.push(*b) }
+        }
+        // Every pixel the field touches (those on its edge are drawn over by the walls).
+        let (width, height) = (target.width() as f64, target.height() as f64);
+        let corner = |p: DVec2| layout.to_pixels(p);
+        let a = corner(DVec2::new(0.0, snapshot.field.height));
+        let b = corner(DVec2::new(snapshot.field.width, 0.0));
+        let (x0, y0) = (a.x.floor().clamp(0.0, width), a.y.floor().clamp(0.0, height));
+        let (x1, y1) = (b.x.ceil().clamp(0.0, width), b.y.ceil().clamp(0.0, height));
+        if x1 <= x0 || y1 <= y0 {
+            return Split::AllPrimitives;
+        }
+        Split::Splatted { rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32], order }
     }
 }
 

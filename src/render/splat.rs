@@ -1,233 +1,326 @@
-//! Small balls without a primitive each: a compute shader adds every ball's pixels into a buffer,
-//! one rectangle blends the buffer over the frame (`shaders/splat.wgsl` says why and how).
+//! Small balls drawn without a primitive each, on a CPU adapter: the field's pixels are computed
+//! here (the field's colour, then every small ball over it, in order, with the same coverage and
+//! colour as `fs_main` in `shaders/balls.wgsl`) and written into the target with one texture
+//! write; the render pass then draws the walls, the large balls and the overlays over them.
+//!
+//! Why: Mesa's CPU rasterisers (lavapipe, llvmpipe) spend about a microsecond on each primitive
+//! — setup, binning, a fragment-shader call per 4×4 block touched — however few pixels it
+//! covers. 100,000 balls 1.6 px across took ~90 ms as triangles and ~60 ms as one-pixel points,
+//! while their vertex work was ~3 ms. A compute shader adding every ball's pixels into a buffer
+//! with atomics took ~30 ms: lavapipe runs a storage-buffer atomic lane by lane. Here, four
+//! pixels of a row at a time in SIMD, they take a few milliseconds, and the texture write
+//! (~4 MB at 1280×720) well under one. On a real GPU none of this pays: there
+//! [`super::BallPath::Auto`] draws triangles.
 
-use bytemuck::{Pod, Zeroable};
-
-use super::renderer::GrowBuffer;
-use super::snapshot::BallSprite;
-
-/// Invocations in a workgroup of `splat` (`@workgroup_size` in the shader).
-const WORKGROUP: u32 = 64;
-
-/// Bytes of the accumulation buffer per pixel: two u32 (`rg`, `ba`).
-const BYTES_PER_PIXEL: u64 = 8;
-
-/// `struct Splat` in the shader.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct SplatParams {
-    rect_min: [i32; 2],
-    rect_size: [i32; 2],
-    count: u32,
-    row: u32,
-    _pad: [u32; 2],
-}
+use super::snapshot::{BallSprite, BallStyle, palette};
 
 /// A rectangle of target pixels, top-left origin, y down: `[x, y, width, height]`.
-pub(super) type PixelRect = [i32; 4];
+pub(super) type PixelRect = [u32; 4];
 
-/// The splat pipelines and their buffers.
-pub(super) struct Splatter {
-    splat: wgpu::ComputePipeline,
-    resolve: wgpu::RenderPipeline,
-    splat_layout: wgpu::BindGroupLayout,
-    resolve_layout: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
-    balls: GrowBuffer,
-    sums: GrowBuffer,
-    /// For `splat` and for the resolve; made again when a buffer grows.
-    bind_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
-    /// The rectangle of the frame being drawn; `None` = nothing to resolve.
-    rect: Option<PixelRect>,
+/// Where the balls land, in the target's pixels (top-left origin, y down), as the shaders
+/// compute it (in f32).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Placement {
+    /// Pixels per metre.
+    pub scale: f32,
+    /// The field's lower-left corner, pixels from the target's top-left corner.
+    pub origin: [f32; 2],
 }
 
-impl Splatter {
-    /// Whether `device` can splat: compute shaders and storage buffers in fragment shaders. A
-    /// device created with WebGL2's limits (no storage buffers, no compute) cannot; [`super::Gpu`]
-    /// asks for these limits only when the adapter has both.
-    pub(super) fn supported(device: &wgpu::Device) -> bool {
-        let l = device.limits();
-        l.max_storage_buffers_per_shader_stage >= 2
-            && l.max_compute_invocations_per_workgroup >= WORKGROUP
-            && l.max_compute_workgroup_size_x >= WORKGROUP
-            && l.max_compute_workgroups_per_dimension >= 1
+/// The byte order of a target's pixels, when the splat can write it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum PixelOrder {
+    Rgba,
+    Bgra,
+}
+
+impl PixelOrder {
+    /// `Some` for the 8-bit formats the splat writes: RGBA or BGRA, not sRGB-encoded (the shaders
+    /// blend in the stored encoding there too; an sRGB target blends in linear light instead).
+    pub(super) fn of(format: wgpu::TextureFormat) -> Option<PixelOrder> {
+        match format {
+            wgpu::TextureFormat::Rgba8Unorm => Some(PixelOrder::Rgba),
+            wgpu::TextureFormat::Bgra8Unorm => Some(PixelOrder::Bgra),
+            _ => None,
+        }
+    }
+}
+
+/// The splatted pixels of one frame, and scratch, kept between frames for their memory.
+#[derive(Default)]
+pub(super) struct Splat {
+    /// `rows × stride` pixels, `0xAABBGGRR` (RGBA) or `0xAARRGGBB` (BGRA) as little-endian u32.
+    pixels: Vec<u32>,
+    /// Pixels per row: the rectangle's width and room for a last group of four.
+    stride: usize,
+    rect: PixelRect,
+    /// For each band of [`BAND_ROWS`] rows, the balls reaching into it, in the snapshot's order:
+    /// band `k`'s are `banded[band_start[k]..band_start[k + 1]]`.
+    band_start: Vec<u32>,
+    banded: Vec<Placed>,
+}
+
+/// A ball in the rectangle's pixels: 16 bytes, as the balls are read band by band.
+#[derive(Clone, Copy, Debug, Default)]
+struct Placed {
+    /// Centre, pixels from the rectangle's corner.
+    centre: [f32; 2],
+    /// Radius, pixels.
+    radius: f32,
+    /// As [`BallSprite::colour`].
+    colour: u32,
+}
+
+/// Pixels of a row processed together: one SIMD register of f32.
+const LANES: usize = 4;
+
+/// Rows drawn together: each band's balls are drawn one band at a time, so the pixels being drawn
+/// stay in the cache (at 1280 pixels a row, a band is 160 kB) instead of every ball fetching its
+/// rows from memory: in snapshot order, balls are all over the field. A ball across a band's
+/// edge is drawn in both bands, each its own rows: every pixel still sees its balls in the
+/// snapshot's order.
+const BAND_ROWS: usize = 32;
+
+impl Splat {
+    /// Fills `rect` (inside the target) with the field's colour and draws `balls` over it, in
+    /// their order, clipped to it.
+    pub(super) fn draw(&mut self, balls: &[BallSprite], place: Placement, rect: PixelRect, order: PixelOrder) {
+        let [x, y, w, h] = rect;
+        self.rect = rect;
+        self.stride = w as usize + LANES;
+        let field = palette::FIELD_RGB.map(|c| (c * 255.0).round() as u32);
+        self.pixels.clear();
+        self.pixels.resize(self.stride * h as usize, pack(field, order));
+        // Ball centres relative to the rectangle's corner.
+        let origin = [place.origin[0] - x as f32, place.origin[1] - y as f32];
+        let placed = balls.iter().map(|b| Placed {
+            centre: [origin[0] + b.x * place.scale, origin[1] - b.y * place.scale],
+            radius: b.radius * place.scale,
+            colour: b.colour,
+        });
+        // The bands a ball reaches into; none if it misses the rectangle.
+        let bands_of = |p: &Placed| match Disc::span(p, w, h) {
+            Some((_, rows)) => rows[0] as usize / BAND_ROWS..(rows[1] as usize - 1) / BAND_ROWS + 1,
+            None => 0..0,
+        };
+        // Sort the balls into their bands, in order: count, offsets, fill (a stable counting
+        // sort). The balls are copied, not indexed: each band then reads its balls in one sweep
+        // through memory (indices into all the balls, read band by band, missed the cache on
+        // nearly every ball).
+        let bands = (h as usize).div_ceil(BAND_ROWS);
+        self.band_start.clear();
+        self.band_start.resize(bands + 1, 0);
+        for p in placed.clone() {
+            for band in bands_of(&p) {
+                self.band_start[band + 1] += 1;
+            }
+        }
+        for k in 0..bands {
+            self.band_start[k + 1] += self.band_start[k];
+        }
+        self.banded.resize(self.band_start[bands] as usize, Placed::default());
+        let mut next = self.band_start.clone();
+        for p in placed {
+            for band in bands_of(&p) {
+                self.banded[next[band] as usize] = p;
+                next[band] += 1;
+            }
+        }
+        let stride = self.stride;
+        for (k, band) in self.pixels.chunks_mut(BAND_ROWS * stride).enumerate() {
+            let first_row = (k * BAND_ROWS) as u32;
+            let last_row = first_row + (band.len() / stride) as u32;
+            for p in &self.banded[self.band_start[k] as usize..self.band_start[k + 1] as usize] {
+                let Some(d) = Disc::new(p, w, h, order) else { continue };
+                for y in d.rows[0].max(first_row)..d.rows[1].min(last_row) {
+                    d.row(&mut band[(y - first_row) as usize * stride..][..stride], y);
+                }
+            }
+        }
     }
 
-    /// The pipelines for targets of `format`, reading the renderer's `globals`; `None` when the
-    /// device cannot splat.
-    pub(super) fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Option<Splatter> {
-        if !Self::supported(device) {
-            return None;
-        }
-        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
-        let uniform = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let storage = |read_only| wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let splat_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("splat"),
-            entries: &[
-                entry(0, compute, uniform),
-                entry(1, compute, uniform),
-                entry(2, compute, storage(true)),
-                entry(3, compute, storage(false)),
-            ],
-        });
-        let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("splat resolve"),
-            entries: &[
-                entry(0, draw, uniform),
-                entry(1, draw, uniform),
-                entry(4, wgpu::ShaderStages::FRAGMENT, storage(true)),
-            ],
-        });
-        let shader = device.create_shader_module(wgpu::include_wgsl!("../../shaders/splat.wgsl"));
-        let splat = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("splat"),
-            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("splat"),
-                bind_group_layouts: &[Some(&splat_layout)],
-                immediate_size: 0,
-            })),
-            module: &shader,
-            entry_point: Some("splat"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let resolve = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("splat resolve"),
-            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("splat resolve"),
-                bind_group_layouts: &[Some(&resolve_layout)],
-                immediate_size: 0,
-            })),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_resolve"),
-                compilation_options: Default::default(),
-                buffers: &[],
+    /// Writes the pixels of the last [`Self::draw`] into `texture` (which needs `COPY_DST`). A
+    /// queue write: it lands before the commands of the next submission, as the renderer's
+    /// buffer writes do.
+    pub(super) fn upload(&self, queue: &wgpu::Queue, texture: &wgpu::Texture) {
+        let [x, y, w, h] = self.rect;
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x, y, z: 0 },
+                aspect: wgpu::TextureAspect::All,
             },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_resolve"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format,
-                    blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("splat params"),
-            size: std::mem::size_of::<SplatParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let storage = wgpu::BufferUsages::STORAGE;
-        Some(Splatter {
-            splat,
-            resolve,
-            splat_layout,
-            resolve_layout,
-            params,
-            balls: GrowBuffer::new(device, "splat balls", storage, 64 * 1024),
-            sums: GrowBuffer::new(device, "splat sums", storage, 1024 * 1024),
-            bind_groups: None,
-            rect: None,
+            bytemuck::cast_slice(&self.pixels),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * self.stride as u32),
+                rows_per_image: None,
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+    }
+}
+
+/// One ball, ready to draw: where, which pixels, which colours.
+struct Disc {
+    /// Centre, pixels from the rectangle's corner.
+    centre: [f32; 2],
+    /// The pixel columns and rows it touches, clipped to the rectangle: `[first, end)`.
+    columns: [u32; 2],
+    rows: [u32; 2],
+    /// Radius + ½ pixel: coverage is `clamp(reach - d, 0, 1)` at distance d from the centre.
+    reach: f32,
+    /// fs_main's shading, as a mix from `base` towards `towards` by
+    /// `clamp(d + shift, 0, 1) · strength`: a darker rim for a plain ball, a ring for the key
+    /// ball and a held one. Colours in the target's byte order, 0–255.
+    shift: f32,
+    strength: f32,
+    base: [f32; 3],
+    towards: [f32; 3],
+}
+
+impl Disc {
+    /// The pixel columns and rows a ball touches in a `w × h` rectangle, `[first, end)` each;
+    /// `None` if it misses it. Pixels whose centre is within radius + ½ of the ball's centre get
+    /// some coverage.
+    #[inline(always)]
+    fn span(p: &Placed, w: u32, h: u32) -> Option<([u32; 2], [u32; 2])> {
+        let reach = p.radius + 0.5;
+        let span = |c: f32, n: u32| {
+            [floor(c - reach).clamp(0, n as i32) as u32, (floor(c + reach) + 1).clamp(0, n as i32) as u32]
+        };
+        let (columns, rows) = (span(p.centre[0], w), span(p.centre[1], h));
+        (columns[0] < columns[1] && rows[0] < rows[1]).then_some((columns, rows))
+    }
+
+    /// The disc of a placed ball in a `w × h` rectangle; `None` if it misses it.
+    #[inline(always)]
+    fn new(p: &Placed, w: u32, h: u32, order: PixelOrder) -> Option<Disc> {
+        let (columns, rows) = Disc::span(p, w, h)?;
+        let (radius, colour) = (p.radius, p.colour);
+        let base = [colour & 255, (colour >> 8) & 255, (colour >> 16) & 255].map(|c| c as f32);
+        let (towards, shift, strength) = match colour >> 24 {
+            s if s == BallStyle::Plain as u32 => ([0.0; 3], 2.0 - radius, 0.35),
+            s => {
+                let inner = radius - (radius * 0.22).max(1.5);
+                let ring = if s == BallStyle::Held as u32 { [255.0, 216.75, 25.5] } else { [255.0; 3] };
+                (ring, 0.5 - inner, 1.0)
+            }
+        };
+        let swap = |c: [f32; 3]| if order == PixelOrder::Bgra { [c[2], c[1], c[0]] } else { c };
+        Some(Disc {
+            centre: p.centre,
+            columns,
+            rows,
+            reach: radius + 0.5,
+            shift,
+            strength,
+            base: swap(base),
+            towards: swap(towards),
         })
     }
 
-    /// Whether a `rect` of sums fits in one storage binding of `device`.
-    pub(super) fn fits(device: &wgpu::Device, rect: PixelRect) -> bool {
-        let bytes = rect[2] as u64 * rect[3] as u64 * BYTES_PER_PIXEL;
-        let l = device.limits();
-        bytes <= l.max_storage_buffer_binding_size && bytes <= l.max_buffer_size
+    /// Draws the disc's part of pixel row `y`, `row` (with room for a last group of four).
+    #[inline(always)]
+    fn row(&self, row: &mut [u32], y: u32) {
+        let dy = y as f32 + 0.5 - self.centre[1];
+        // Groups of four from the first column; the last may reach past the disc's columns (and
+        // past the rectangle, into the row's spare room): those pixels are outside the disc and
+        // keep their value.
+        for x in (self.columns[0] as usize..self.columns[1] as usize).step_by(LANES) {
+            let group: &mut [u32; LANES] = (&mut row[x..x + LANES]).try_into().expect("the row has room");
+            self.blend(group, x as f32 + 0.5 - self.centre[0], dy * dy);
+        }
     }
 
-    /// Uploads `balls` and records, on `encoder`, the clearing of the sums over `rect` and the
-    /// splat of every ball into them. `rect` must be inside the target, not empty, and
-    /// [`Self::fits`]; `globals` is the renderer's uniform.
-    pub(super) fn prepare(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        globals: &wgpu::Buffer,
-        balls: &[BallSprite],
-        rect: PixelRect,
-    ) {
-        let count = balls.len() as u32;
-        let groups = count.div_ceil(WORKGROUP);
-        // A large count is dispatched as rows of at most the device's limit of workgroups.
-        let max_groups = device.limits().max_compute_workgroups_per_dimension;
-        let (groups_x, groups_y) = (groups.min(max_groups), groups.div_ceil(max_groups));
-        let params = SplatParams {
-            rect_min: [rect[0], rect[1]],
-            rect_size: [rect[2], rect[3]],
-            count,
-            row: groups_x * WORKGROUP,
-            _pad: [0; 2],
-        };
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let sums_bytes = rect[2] as u64 * rect[3] as u64 * BYTES_PER_PIXEL;
-        let grew = self.balls.write(device, queue, bytemuck::cast_slice(balls)) | self.sums.reserve(device, sums_bytes);
-        if grew || self.bind_groups.is_none() {
-            fn whole(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
-                b.as_entire_binding()
+    /// Blends the disc over four pixels of a row: the first `dx` pixels right of the centre,
+    /// `dy2` the squared vertical distance. Written lane by lane over arrays so that the
+    /// compiler makes SIMD of it (SSE2 on x86-64: four square roots in one instruction).
+    #[inline(always)]
+    fn blend(&self, group: &mut [u32; LANES], dx: f32, dy2: f32) {
+        let mut coverage = [0.0f32; LANES];
+        let mut mix = [0.0f32; LANES];
+        for l in 0..LANES {
+            let x = dx + l as f32;
+            let d = (x * x + dy2).sqrt();
+            coverage[l] = (self.reach - d).clamp(0.0, 1.0);
+            mix[l] = (d + self.shift).clamp(0.0, 1.0) * self.strength;
+        }
+        let mut out = [0xFF00_0000u32; LANES];
+        for c in 0..3 {
+            let shift = 8 * c as u32;
+            for l in 0..LANES {
+                let under = ((group[l] >> shift) & 255) as f32;
+                let shade = self.base[c] + (self.towards[c] - self.base[c]) * mix[l];
+                // Premultiplied "over", as the pipeline's blend state; adding 1.5·2²³ leaves the
+                // value rounded to an integer in the float's low mantissa bits (a plain `as`
+                // conversion saturates, which the compiler cannot do four at a time). The value
+                // is within 0..=255, so its low byte is all there is.
+                let v = shade * coverage[l] + under * (1.0 - coverage[l]) + 12_582_912.0;
+                out[l] |= (v.to_bits() & 255) << shift;
             }
-            let splat = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("splat"),
-                layout: &self.splat_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: whole(globals) },
-                    wgpu::BindGroupEntry { binding: 1, resource: whole(&self.params) },
-                    wgpu::BindGroupEntry { binding: 2, resource: whole(&self.balls.buffer) },
-                    wgpu::BindGroupEntry { binding: 3, resource: whole(&self.sums.buffer) },
-                ],
-            });
-            let resolve = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("splat resolve"),
-                layout: &self.resolve_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: whole(globals) },
-                    wgpu::BindGroupEntry { binding: 1, resource: whole(&self.params) },
-                    wgpu::BindGroupEntry { binding: 4, resource: whole(&self.sums.buffer) },
-                ],
-            });
-            self.bind_groups = Some((splat, resolve));
         }
-        let (splat_group, _) = self.bind_groups.as_ref().expect("made above");
-        encoder.clear_buffer(&self.sums.buffer, 0, Some(sums_bytes));
-        let mut pass =
-            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("splat"), timestamp_writes: None });
-        pass.set_pipeline(&self.splat);
-        pass.set_bind_group(0, splat_group, &[]);
-        pass.dispatch_workgroups(groups_x, groups_y, 1);
-        self.rect = Some(rect);
+        *group = out;
+    }
+}
+
+/// `v.floor() as i32` without a call into libm (x86-64's baseline has no rounding instruction);
+/// saturating at the ends of i32 as `as` does.
+fn floor(v: f32) -> i32 {
+    let t = v as i32;
+    t - ((t as f32) > v) as i32
+}
+
+/// An opaque colour in the target's byte order.
+fn pack(rgb: [u32; 3], order: PixelOrder) -> u32 {
+    let [r, g, b] = rgb;
+    let (first, third) = if order == PixelOrder::Bgra { (b, r) } else { (r, b) };
+    first | (g << 8) | (third << 16) | 0xFF00_0000
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_matches_std() {
+        for v in [-2.5f32, -2.0, -0.5, -0.0, 0.0, 0.3, 1.0, 1.7, 1e9, -1e9, 3e10] {
+            assert_eq!(floor(v), v.floor() as i32, "{v}");
+        }
     }
 
-    /// Blends the sums of the last [`Self::prepare`] over the target.
-    pub(super) fn resolve(&mut self, pass: &mut wgpu::RenderPass<'_>) {
-        if self.rect.take().is_none() {
-            return;
-        }
-        let (_, resolve_group) = self.bind_groups.as_ref().expect("prepare made them");
-        pass.set_pipeline(&self.resolve);
-        pass.set_bind_group(0, resolve_group, &[]);
-        pass.draw(0..6, 0..1);
+    #[test]
+    fn a_ball_covers_its_centre_and_not_beyond_its_edge() {
+        let mut splat = Splat::default();
+        let place = Placement { scale: 10.0, origin: [0.0, 20.0] };
+        // A 5 px ball centred on pixel (10, 10) of a 20 × 20 rectangle.
+        let ball = BallSprite { x: 1.05, y: 0.95, radius: 0.5, colour: palette::BALLS[0] & 0x00FF_FFFF };
+        splat.draw(&[ball], place, [0, 0, 20, 20], PixelOrder::Rgba);
+        let at = |x: usize, y: usize| splat.pixels[y * splat.stride + x];
+        let field = pack(palette::FIELD_RGB.map(|c| (c * 255.0).round() as u32), PixelOrder::Rgba);
+        assert_ne!(at(10, 10), field);
+        assert_eq!(at(10, 10) >> 24, 255);
+        // 6 px from the centre: outside radius + ½.
+        assert_eq!(at(16, 10), field);
+        assert_eq!(at(10, 4), field);
+        assert_eq!(at(0, 0), field);
+        // BGRA swaps red and blue.
+        let rgba = at(10, 10);
+        splat.draw(&[ball], place, [0, 0, 20, 20], PixelOrder::Bgra);
+        let bgra = splat.pixels[10 * splat.stride + 10];
+        assert_eq!(bgra, (rgba & 0xFF00_FF00) | ((rgba & 0xFF) << 16) | ((rgba >> 16) & 0xFF));
+    }
+
+    #[test]
+    fn balls_off_the_rectangle_are_clipped() {
+        let mut splat = Splat::default();
+        let place = Placement { scale: 10.0, origin: [0.0, 20.0] };
+        let balls = [
+            BallSprite { x: -0.1, y: 1.0, radius: 0.3, colour: palette::BALLS[1] },
+            BallSprite { x: 2.1, y: 2.1, radius: 0.3, colour: palette::BALLS[2] },
+            BallSprite { x: 1e9, y: -1e9, radius: 0.3, colour: palette::BALLS[3] },
+        ];
+        splat.draw(&balls, place, [0, 0, 20, 20], PixelOrder::Rgba);
     }
 }
