@@ -275,7 +275,8 @@ impl App {
         } else {
             wgpu::PresentMode::AutoVsync
         };
-        // The panel's cached pixels are copied into the frame (see `draw`).
+        // The panel's cached pixels are copied into the frame (see `draw`), and the renderer
+        // writes splatted balls into it (`BallPath::Splat`).
         let copy_to_surface = caps.usages.contains(wgpu::TextureUsages::COPY_DST);
         if copy_to_surface {
             config.usage |= wgpu::TextureUsages::COPY_DST;
@@ -826,7 +827,10 @@ impl App {
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
                     format: gfx.config.format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    // COPY_DST: the renderer may splat small balls into it (`BallPath::Splat`).
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::COPY_DST,
                     view_formats: &[],
                 }));
             }

@@ -16,7 +16,11 @@
 use std::path::{Path, PathBuf};
 
 use ballfield::Lockstep;
-use ballfield::render::{FrameSnapshot, OffscreenRenderer, RenderError, palette};
+use ballfield::physics::{BallKind, Field};
+use ballfield::render::{
+    BallPath, BallSprite, BallStyle, FrameBalls, FrameSnapshot, OffscreenRenderer, RenderError, SPLAT_MAX_RADIUS_PX,
+    SPLAT_MIN_BALLS, ball_colour, palette, with_style,
+};
 use ballfield::scenes;
 
 const CHANNEL_TOLERANCE: u8 = 2;
@@ -41,8 +45,14 @@ fn golden_dir() -> PathBuf {
 }
 
 fn compare(name: &str, actual: &image::RgbaImage) {
-    let golden_path = golden_dir().join(format!("{name}.png"));
-    if std::env::var_os("BALLFIELD_BLESS").is_some() {
+    compare_as(name, name, actual)
+}
+
+/// Compares `actual`, reported as `name`, with the golden `golden`; blessing writes the golden
+/// only from the frame named as it is.
+fn compare_as(name: &str, golden: &str, actual: &image::RgbaImage) {
+    let golden_path = golden_dir().join(format!("{golden}.png"));
+    if std::env::var_os("BALLFIELD_BLESS").is_some() && name == golden {
         actual.save(&golden_path).unwrap();
         eprintln!("blessed {}", golden_path.display());
         return;
@@ -151,4 +161,75 @@ fn rendering_is_repeatable_and_read_only() {
     let b = out.render_image(&snapshot).unwrap();
     assert_eq!(a, b);
     assert_eq!(engine.state_hash(), hash);
+}
+
+/// Many small balls, the way a large field looks fitted to a small target: 12,000 balls about
+/// 2 px across and 300 of 6 px scattered over a 400 m × 225 m field (overlapping freely, some on
+/// the walls and corners), a small key ball and a held one with their rings, then five 12 px
+/// balls and the overlays over them. On a CPU adapter the default path splats the small balls
+/// (`BallPath::Auto`, see src/render/splat.rs) and draws the large ones as triangles; the same
+/// frame drawn all as triangles, and all splatted, must match the same golden.
+#[test]
+fn many_small_balls() {
+    let Some(mut out) = renderer(640, 360) else { return };
+    let field = Field { width: 400.0, height: 225.0, ..Field::default() };
+    let mut snapshot = FrameSnapshot::new(field);
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut ball = |radius: f32, colour: u32| BallSprite {
+        x: next() * field.width as f32,
+        y: next() * field.height as f32,
+        radius,
+        colour,
+    };
+    let (tiny, small, large) = (12_000, 300, 5);
+    for i in 0..tiny {
+        snapshot.balls.push(ball(0.65, ball_colour(BallKind::Ball, i)));
+    }
+    for i in 0..small {
+        snapshot.balls.push(ball(2.0, ball_colour(BallKind::Ball, i)));
+    }
+    // On the walls and in the corners.
+    for (x, y) in [(0.0, 0.0), (400.0, 225.0), (0.0, 100.0), (200.0, 225.0), (399.5, 0.3)] {
+        snapshot.balls.push(BallSprite { x, y, radius: 2.0, colour: ball_colour(BallKind::Ball, 7) });
+    }
+    let held = with_style(ball_colour(BallKind::Ball, 3), BallStyle::Held);
+    snapshot.balls.push(BallSprite { x: 150.0, y: 60.0, radius: 4.0, colour: held });
+    snapshot.balls.push(BallSprite { x: 100.0, y: 100.0, radius: 4.0, colour: ball_colour(BallKind::Key, 0) });
+    for i in 0..large {
+        snapshot.balls.push(ball(8.0, ball_colour(BallKind::Ball, i)));
+    }
+    snapshot.add_cross(glam::DVec2::new(200.0, 112.5), 6.0, palette::CENTRE_OF_MASS);
+    snapshot.add_velocity_vectors([(glam::DVec2::new(100.0, 100.0), glam::DVec2::new(40.0, 30.0))], 0.5);
+    let scale = snapshot.layout(640, 360).scale as f32;
+    assert!(8.0 * scale > SPLAT_MAX_RADIUS_PX && 4.0 * scale <= SPLAT_MAX_RADIUS_PX, "scale {scale}");
+    assert!(tiny + small > SPLAT_MIN_BALLS as u32);
+
+    let n = snapshot.balls.len();
+    let auto = out.render_image(&snapshot).unwrap();
+    let cpu = out.gpu.adapter.get_info().device_type == wgpu::DeviceType::Cpu;
+    let expected = if cpu {
+        FrameBalls { splatted: n - large as usize, primitives: large as usize }
+    } else {
+        FrameBalls { splatted: 0, primitives: n }
+    };
+    assert_eq!(out.renderer.last_frame(), expected, "adapter {}", out.gpu.describe());
+    compare("small-balls", &auto);
+
+    out.renderer.set_ball_path(BallPath::Splat);
+    let splat = out.render_image(&snapshot).unwrap();
+    assert_eq!(out.renderer.last_frame(), FrameBalls { splatted: n, primitives: 0 });
+    compare_as("small-balls-all-splatted", "small-balls", &splat);
+
+    out.renderer.set_ball_path(BallPath::Triangles);
+    let triangles = out.render_image(&snapshot).unwrap();
+    assert_eq!(out.renderer.last_frame(), FrameBalls { splatted: 0, primitives: n });
+    compare_as("small-balls-as-triangles", "small-balls", &triangles);
+
+    // The splat is repeatable too.
+    out.renderer.set_ball_path(BallPath::Auto);
+    assert_eq!(out.render_image(&snapshot).unwrap(), auto);
 }

@@ -16,7 +16,7 @@ mod splat;
 pub use gpu::{Gpu, instance_descriptor, raise_render_priority};
 pub use layout::{Layout, MARGIN_PX, PIXELS_PER_METRE};
 pub use offscreen::{OFFSCREEN_FORMAT, Offscreen};
-pub use renderer::{BallPath, Renderer, SPLAT_MAX_RADIUS_PX, SPLAT_MIN_BALLS};
+pub use renderer::{BallPath, FrameBalls, Renderer, SPLAT_MAX_RADIUS_PX, SPLAT_MIN_BALLS};
 pub use snapshot::{BallSprite, BallStyle, FrameSnapshot, Segment, ball_colour, palette, rgba, with_style};
 
 /// Why drawing failed.

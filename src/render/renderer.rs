@@ -47,6 +47,13 @@ pub const SPLAT_MAX_RADIUS_PX: f32 = 8.0;
 /// (filling and writing the field's pixels) is more than the triangles'.
 pub const SPLAT_MIN_BALLS: usize = 200;
 
+/// How the balls of a frame were drawn (see [`BallPath`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameBalls {
+    pub splatted: usize,
+    pub primitives: usize,
+}
+
 /// How a frame's balls are drawn (see `Renderer::sort_balls`).
 #[derive(Clone, Copy, Debug)]
 enum Split {
@@ -131,6 +138,8 @@ pub struct Renderer {
     ball_buffer: GrowBuffer,
     index_buffer: GrowBuffer,
     indexed_balls: u32,
+    /// Balls of the last frame splatted, and drawn as primitives.
+    last_frame: FrameBalls,
     segment_buffer: GrowBuffer,
     /// The adapter is a CPU (Mesa's lavapipe or llvmpipe): [`BallPath::Auto`] splats.
     cpu_adapter: bool,
@@ -272,6 +281,7 @@ impl Renderer {
             ball_buffer: GrowBuffer::new(device, "balls", vertex, 64 * 1024),
             index_buffer: GrowBuffer::new(device, "ball indices", wgpu::BufferUsages::INDEX, 4),
             indexed_balls: 0,
+            last_frame: FrameBalls::default(),
             segment_buffer: GrowBuffer::new(device, "segments", vertex, 16 * 1024),
             cpu_adapter: device.adapter_info().device_type == wgpu::DeviceType::Cpu,
             splat: Splat::default(),
@@ -289,6 +299,11 @@ impl Renderer {
 
     pub fn ball_path(&self) -> BallPath {
         self.path
+    }
+
+    /// How many balls the last frame splatted and drew as primitives.
+    pub fn last_frame(&self) -> FrameBalls {
+        self.last_frame
     }
 
     /// Chooses how balls are drawn (for benches and tests; the default, [`BallPath::Auto`],
@@ -353,6 +368,7 @@ impl Renderer {
             Split::AllPrimitives => &snapshot.balls,
             Split::Splatted { .. } => &self.large,
         };
+        self.last_frame = FrameBalls { splatted: snapshot.balls.len() - large.len(), primitives: large.len() };
         let n = large.len() as u32;
         let raster = match self.path {
             BallPath::Instanced | BallPath::Expanded => self.path,
