@@ -165,7 +165,7 @@ fn rendering_is_repeatable_and_read_only() {
 
 /// Many small balls, the way a large field looks fitted to a small target: 12,000 balls about
 /// 2 px across and 300 of 6 px scattered over a 400 m × 225 m field (overlapping freely, some on
-/// the walls and corners), a small key ball and a held one with their rings, then five 12 px
+/// the walls and corners), a small key ball and a held one with their rings, then five 18 px
 /// balls and the overlays over them. On a CPU adapter the default path splats the small balls
 /// (`BallPath::Auto`, see src/render/splat.rs) and draws the large ones as triangles; the same
 /// frame drawn all as triangles, and all splatted, must match the same golden.
@@ -200,12 +200,12 @@ fn many_small_balls() {
     snapshot.balls.push(BallSprite { x: 150.0, y: 60.0, radius: 4.0, colour: held });
     snapshot.balls.push(BallSprite { x: 100.0, y: 100.0, radius: 4.0, colour: ball_colour(BallKind::Key, 0) });
     for i in 0..large {
-        snapshot.balls.push(ball(8.0, ball_colour(BallKind::Ball, i)));
+        snapshot.balls.push(ball(12.0, ball_colour(BallKind::Ball, i)));
     }
     snapshot.add_cross(glam::DVec2::new(200.0, 112.5), 6.0, palette::CENTRE_OF_MASS);
     snapshot.add_velocity_vectors([(glam::DVec2::new(100.0, 100.0), glam::DVec2::new(40.0, 30.0))], 0.5);
     let scale = snapshot.layout(640, 360).scale as f32;
-    assert!(8.0 * scale > SPLAT_MAX_RADIUS_PX && 4.0 * scale <= SPLAT_MAX_RADIUS_PX, "scale {scale}");
+    assert!(12.0 * scale > SPLAT_MAX_RADIUS_PX && 4.0 * scale <= SPLAT_MAX_RADIUS_PX, "scale {scale}");
     assert!(tiny + small > SPLAT_MIN_BALLS as u32);
 
     let n = snapshot.balls.len();

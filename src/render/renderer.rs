@@ -40,12 +40,16 @@ pub enum BallPath {
     Triangles,
 }
 
-/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats.
-pub const SPLAT_MAX_RADIUS_PX: f32 = 8.0;
+/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats. On lavapipe
+/// (1280×720, 100 and 1,000 balls of 2–64 px radius) the splat was as fast as triangles or faster
+/// up to about 32 px: a CPU rasteriser pays for every primitive and for every pixel of its
+/// fragment shader too. Beyond, a few large balls are cheaper as triangles.
+pub const SPLAT_MAX_RADIUS_PX: f32 = 16.0;
 
-/// The fewest small balls for which [`BallPath::Auto`] splats: below, the splat's fixed cost
-/// (filling and writing the field's pixels) is more than the triangles'.
-pub const SPLAT_MIN_BALLS: usize = 200;
+/// The fewest small balls for which [`BallPath::Auto`] splats. Below, a frame costs well under a
+/// millisecond either way (10–100 balls: 0.6–0.9 ms on lavapipe at 1280×720, both ways), and a
+/// few balls on a large target are cheaper as triangles than filling and writing the whole field.
+pub const SPLAT_MIN_BALLS: usize = 100;
 
 /// How the balls of a frame were drawn (see [`BallPath`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -60,8 +64,9 @@ enum Split {
     /// All as primitives, straight from the snapshot, over a cleared target.
     AllPrimitives,
     /// The small ones splatted into `rect` (the field, its pixels all written by the splat), the
-    /// rest as primitives.
-    Splatted { rect: PixelRect, order: PixelOrder },
+    /// rest as primitives. With `all`, every ball is splatted, straight from the snapshot;
+    /// otherwise they were sorted into `Renderer::small` and `Renderer::large`.
+    Splatted { rect: PixelRect, order: PixelOrder, all: bool },
 }
 
 /// The uniform both shaders read (see `struct Globals` in them).
@@ -358,15 +363,16 @@ impl Renderer {
 
         // Which balls are splatted, which drawn as primitives.
         let split = self.sort_balls(snapshot, &layout, view.texture());
-        if let Split::Splatted { rect, order } = split {
+        if let Split::Splatted { rect, order, all } = split {
             let place =
                 Placement { scale: globals.scale, origin: [globals.origin[0], size.height as f32 - globals.origin[1]] };
-            self.splat.draw(&self.small, place, rect, order);
+            self.splat.draw(if all { &snapshot.balls } else { &self.small }, place, rect, order);
             self.splat.upload(&self.queue, view.texture());
         }
-        let large = match split {
+        let large: &[BallSprite] = match split {
             Split::AllPrimitives => &snapshot.balls,
-            Split::Splatted { .. } => &self.large,
+            Split::Splatted { all: true, .. } => &[],
+            Split::Splatted { all: false, .. } => &self.large,
         };
         self.last_frame = FrameBalls { splatted: snapshot.balls.len() - large.len(), primitives: large.len() };
         let n = large.len() as u32;
@@ -454,8 +460,8 @@ impl Renderer {
         }
     }
 
-    /// Chooses how this frame's balls are drawn; for a splat, puts the balls to splat into
-    /// `self.small` and the rest into `self.large`, each in their order.
+    /// Chooses how this frame's balls are drawn; for a splat of some of them, puts the balls to
+    /// splat into `self.small` and the rest into `self.large`, each in their order.
     fn sort_balls(&mut self, snapshot: &FrameSnapshot, layout: &Layout, target: &wgpu::Texture) -> Split {
         self.small.clear();
         self.large.clear();
@@ -472,8 +478,11 @@ impl Renderer {
         if small == 0 || (self.path == BallPath::Auto && small < SPLAT_MIN_BALLS) {
             return Split::AllPrimitives;
         }
-        for b in &snapshot.balls {
-            if b.radius <= limit { self.small.push(*b) } else { self.large.push(*b) }
+        let all = small == snapshot.balls.len();
+        if !all {
+            for b in &snapshot.balls {
+                if b.radius <= limit { self.small.push(*b) } else { self.large.push(*b) }
+            }
         }
         // Every pixel the field touches (those on its edge are drawn over by the walls).
         let (width, height) = (target.width() as f64, target.height() as f64);
@@ -485,7 +494,7 @@ impl Renderer {
         if x1 <= x0 || y1 <= y0 {
             return Split::AllPrimitives;
         }
-        Split::Splatted { rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32], order }
+        Split::Splatted { rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32], order, all }
     }
 }
 

@@ -126,17 +126,18 @@ impl Splat {
                 next[band] += 1;
             }
         }
-        let stride = self.stride;
-        for (k, band) in self.pixels.chunks_mut(BAND_ROWS * stride).enumerate() {
+        let (stride, band_start, banded) = (self.stride, &self.band_start, &self.banded);
+        let draw_band = |(k, band): (usize, &mut [u32])| {
             let first_row = (k * BAND_ROWS) as u32;
             let last_row = first_row + (band.len() / stride) as u32;
-            for p in &self.banded[self.band_start[k] as usize..self.band_start[k + 1] as usize] {
+            for p in &banded[band_start[k] as usize..band_start[k + 1] as usize] {
                 let Some(d) = Disc::new(p, w, h, order) else { continue };
                 for y in d.rows[0].max(first_row)..d.rows[1].min(last_row) {
                     d.row(&mut band[(y - first_row) as usize * stride..][..stride], y);
                 }
             }
-        }
+        };
+        self.pixels.chunks_mut(BAND_ROWS * stride).enumerate().for_each(draw_band);
     }
 
     /// Writes the pixels of the last [`Self::draw`] into `texture` (which needs `COPY_DST`). A
