@@ -17,6 +17,9 @@ use super::snapshot::{BallSprite, BallStyle, palette};
 /// A rectangle of target pixels, top-left origin, y down: `[x, y, width, height]`.
 pub(super) type PixelRect = [u32; 4];
 
+/// The largest width and height of a splat's rectangle (balls keep their pixel spans in u16).
+pub(super) const MAX_SIDE: u32 = u16::MAX as u32;
+
 /// Where the balls land, in the target's pixels (top-left origin, y down), as the shaders
 /// compute it (in f32).
 #[derive(Clone, Copy, Debug)]
@@ -58,9 +61,11 @@ pub(super) struct Splat {
     /// band `k`'s are `banded[band_start[k]..band_start[k + 1]]`.
     band_start: Vec<u32>,
     banded: Vec<Placed>,
+    /// The balls that touch the rectangle, in order.
+    placed: Vec<Placed>,
 }
 
-/// A ball in the rectangle's pixels: 16 bytes, as the balls are read band by band.
+/// A ball in the rectangle's pixels: 24 bytes, as the balls are read band by band.
 #[derive(Clone, Copy, Debug, Default)]
 struct Placed {
     /// Centre, pixels from the rectangle's corner.
@@ -69,6 +74,9 @@ struct Placed {
     radius: f32,
     /// As [`BallSprite::colour`].
     colour: u32,
+    /// The pixel columns and rows it touches, clipped to the rectangle: `[first, end)`.
+    columns: [u16; 2],
+    rows: [u16; 2],
 }
 
 /// Pixels of a row processed together: one SIMD register of f32.
@@ -93,25 +101,21 @@ impl Splat {
         self.pixels.resize(self.stride * h as usize, pack(field, order));
         // Ball centres relative to the rectangle's corner.
         let origin = [place.origin[0] - x as f32, place.origin[1] - y as f32];
-        let placed = balls.iter().map(|b| Placed {
-            centre: [origin[0] + b.x * place.scale, origin[1] - b.y * place.scale],
-            radius: b.radius * place.scale,
-            colour: b.colour,
-        });
-        // The bands a ball reaches into; none if it misses the rectangle.
-        let bands_of = |p: &Placed| match Disc::span(p, w, h) {
-            Some((_, rows)) => rows[0] as usize / BAND_ROWS..(rows[1] as usize - 1) / BAND_ROWS + 1,
-            None => 0..0,
-        };
+        self.placed.clear();
+        self.placed.extend(balls.iter().filter_map(|b| {
+            let centre = [origin[0] + b.x * place.scale, origin[1] - b.y * place.scale];
+            Placed::new(centre, b.radius * place.scale, b.colour, w, h)
+        }));
         // Sort the balls into their bands, in order: count, offsets, fill (a stable counting
         // sort). The balls are copied, not indexed: each band then reads its balls in one sweep
         // through memory (indices into all the balls, read band by band, missed the cache on
         // nearly every ball).
+        let bands_of = |p: &Placed| p.rows[0] as usize / BAND_ROWS..(p.rows[1] as usize - 1) / BAND_ROWS + 1;
         let bands = (h as usize).div_ceil(BAND_ROWS);
         self.band_start.clear();
         self.band_start.resize(bands + 1, 0);
-        for p in placed.clone() {
-            for band in bands_of(&p) {
+        for p in &self.placed {
+            for band in bands_of(p) {
                 self.band_start[band + 1] += 1;
             }
         }
@@ -120,9 +124,9 @@ impl Splat {
         }
         self.banded.resize(self.band_start[bands] as usize, Placed::default());
         let mut next = self.band_start.clone();
-        for p in placed {
-            for band in bands_of(&p) {
-                self.banded[next[band] as usize] = p;
+        for p in &self.placed {
+            for band in bands_of(p) {
+                self.banded[next[band] as usize] = *p;
                 next[band] += 1;
             }
         }
@@ -131,8 +135,8 @@ impl Splat {
             let first_row = (k * BAND_ROWS) as u32;
             let last_row = first_row + (band.len() / stride) as u32;
             for p in &banded[band_start[k] as usize..band_start[k + 1] as usize] {
-                let Some(d) = Disc::new(p, w, h, order) else { continue };
-                for y in d.rows[0].max(first_row)..d.rows[1].min(last_row) {
+                let d = Disc::new(p, order);
+                for y in (p.rows[0] as u32).max(first_row)..(p.rows[1] as u32).min(last_row) {
                     d.row(&mut band[(y - first_row) as usize * stride..][..stride], y);
                 }
             }
@@ -163,13 +167,27 @@ impl Splat {
     }
 }
 
+impl Placed {
+    /// A ball of radius `radius` (pixels) centred at `centre` (pixels from the rectangle's
+    /// corner), with its packed colour; `None` if it misses the `w × h` rectangle. Pixels whose
+    /// centre is within radius + ½ of the ball's centre get some coverage.
+    #[inline(always)]
+    fn new(centre: [f32; 2], radius: f32, colour: u32, w: u32, h: u32) -> Option<Placed> {
+        let reach = radius + 0.5;
+        let span = |c: f32, n: u32| {
+            [floor(c - reach).clamp(0, n as i32) as u16, (floor(c + reach) + 1).clamp(0, n as i32) as u16]
+        };
+        let (columns, rows) = (span(centre[0], w), span(centre[1], h));
+        (columns[0] < columns[1] && rows[0] < rows[1]).then_some(Placed { centre, radius, colour, columns, rows })
+    }
+}
+
 /// One ball, ready to draw: where, which pixels, which colours.
 struct Disc {
     /// Centre, pixels from the rectangle's corner.
     centre: [f32; 2],
-    /// The pixel columns and rows it touches, clipped to the rectangle: `[first, end)`.
-    columns: [u32; 2],
-    rows: [u32; 2],
+    /// The pixel columns it touches: `[first, end)`.
+    columns: [usize; 2],
     /// Radius + ½ pixel: coverage is `clamp(reach - d, 0, 1)` at distance d from the centre.
     reach: f32,
     /// fs_main's shading, as a mix from `base` towards `towards` by
@@ -182,23 +200,9 @@ struct Disc {
 }
 
 impl Disc {
-    /// The pixel columns and rows a ball touches in a `w × h` rectangle, `[first, end)` each;
-    /// `None` if it misses it. Pixels whose centre is within radius + ½ of the ball's centre get
-    /// some coverage.
+    /// The disc of a placed ball.
     #[inline(always)]
-    fn span(p: &Placed, w: u32, h: u32) -> Option<([u32; 2], [u32; 2])> {
-        let reach = p.radius + 0.5;
-        let span = |c: f32, n: u32| {
-            [floor(c - reach).clamp(0, n as i32) as u32, (floor(c + reach) + 1).clamp(0, n as i32) as u32]
-        };
-        let (columns, rows) = (span(p.centre[0], w), span(p.centre[1], h));
-        (columns[0] < columns[1] && rows[0] < rows[1]).then_some((columns, rows))
-    }
-
-    /// The disc of a placed ball in a `w × h` rectangle; `None` if it misses it.
-    #[inline(always)]
-    fn new(p: &Placed, w: u32, h: u32, order: PixelOrder) -> Option<Disc> {
-        let (columns, rows) = Disc::span(p, w, h)?;
+    fn new(p: &Placed, order: PixelOrder) -> Disc {
         let (radius, colour) = (p.radius, p.colour);
         let base = [colour & 255, (colour >> 8) & 255, (colour >> 16) & 255].map(|c| c as f32);
         let (towards, shift, strength) = match colour >> 24 {
@@ -210,16 +214,15 @@ impl Disc {
             }
         };
         let swap = |c: [f32; 3]| if order == PixelOrder::Bgra { [c[2], c[1], c[0]] } else { c };
-        Some(Disc {
+        Disc {
             centre: p.centre,
-            columns,
-            rows,
+            columns: [p.columns[0] as usize, p.columns[1] as usize],
             reach: radius + 0.5,
             shift,
             strength,
             base: swap(base),
             towards: swap(towards),
-        })
+        }
     }
 
     /// Draws the disc's part of pixel row `y`, `row` (with room for a last group of four).
@@ -229,7 +232,7 @@ impl Disc {
         // Groups of four from the first column; the last may reach past the disc's columns (and
         // past the rectangle, into the row's spare room): those pixels are outside the disc and
         // keep their value.
-        for x in (self.columns[0] as usize..self.columns[1] as usize).step_by(LANES) {
+        for x in (self.columns[0]..self.columns[1]).step_by(LANES) {
             let group: &mut [u32; LANES] = (&mut row[x..x + LANES]).try_into().expect("the row has room");
             self.blend(group, x as f32 + 0.5 - self.centre[0], dy * dy);
         }
@@ -258,7 +261,7 @@ impl Disc {
                 // value rounded to an integer in the float's low mantissa bits (a plain `as`
                 // conversion saturates, which the compiler cannot do four at a time). The value
                 // is within 0..=255, so its low byte is all there is.
-                let v = shade * coverage[l] + under * (1.0 - coverage[l]) + 12_582_912.0;
+                let v = under + (shade - under) * coverage[l] + 12_582_912.0;
                 out[l] |= (v.to_bits() & 255) << shift;
             }
         }
