@@ -63,7 +63,10 @@ fn effect_sets() -> [(&'static str, Effects, &'static [usize]); 4] {
         ("gravity+drag", Effects { gravity, drag, ..Effects::default() }, &[100, 1_000, 10_000]),
         (
             "attraction",
-            Effects { attraction: Some(Attraction { g_constant: NEWTON_G }), ..Effects::default() },
+            Effects {
+                attraction: Some(Attraction { g_constant: NEWTON_G, ..Attraction::default() }),
+                ..Effects::default()
+            },
             &[10, 100, 1_000],
         ),
     ]

@@ -329,7 +329,7 @@ impl App {
         if s.attraction {
             // The real G moves nothing visible: scenes without attraction get the `attraction`
             // scene's scaled G = 1.
-            e.attraction = Some(base.attraction.unwrap_or(Attraction { g_constant: 1.0 }));
+            e.attraction = Some(base.attraction.unwrap_or(Attraction { g_constant: 1.0, ..Attraction::default() }));
         }
         if s.collisions {
             let mut c = base.collisions.unwrap_or_default();

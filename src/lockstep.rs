@@ -33,8 +33,8 @@ use rayon::prelude::*;
 
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Effects, Field, Forces, Integrator,
-    IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, attraction_rate_squared,
-    contact_ball_wall, drag_rate, integrate, measure,
+    IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, contact_ball_wall, drag_rate,
+    integrate, measure,
 };
 use crate::scene::Scene;
 use contact_solver::ContactSolver;
@@ -224,9 +224,14 @@ impl Lockstep {
         self.max_balls
     }
 
-    /// Names of the effects that run each step (walls always do).
+    /// Names of the effects that run each step (walls always do); attraction says how it is
+    /// summed for the balls there are now: `attraction (direct)` or `attraction (tree)`.
     pub fn active_effects(&self) -> Vec<&'static str> {
-        self.effects.active_names()
+        let mut names = self.effects.active_names();
+        if let Some(method) = self.forces.attraction_method(self.bodies.len()) {
+            names.iter_mut().filter(|n| **n == "attraction").for_each(|n| *n = method.label());
+        }
+        names
     }
 
     /// Turns effects on or off; the per-step work is rebuilt from them.
@@ -308,12 +313,14 @@ impl Lockstep {
         self.next_id += 1;
         self.bodies.push(ball);
         self.grid_stale = true;
+        self.forces.forget_orbit_rate();
         Ok(ball.id)
     }
 
     pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.grid_stale = true;
+        self.forces.forget_orbit_rate();
         Ok(self.bodies.remove(index))
     }
 
@@ -321,6 +328,7 @@ impl Lockstep {
     pub fn remove_last(&mut self) -> Option<Ball> {
         let index = (0..self.bodies.len()).rev().find(|&i| self.bodies.kind[i] != BallKind::Key)?;
         self.grid_stale = true;
+        self.forces.forget_orbit_rate();
         Some(self.bodies.remove(index))
     }
 
@@ -374,7 +382,7 @@ impl Lockstep {
     /// not stiff for the step (`drag_rate·h ≤ MAX_DRAG_STEP`: a light, large ball at high speed
     /// would otherwise have its velocity overshoot through zero and blow up); with attraction on,
     /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`).
-    fn substeps_needed(&self, span: f64) -> u32 {
+    fn substeps_needed(&mut self, span: f64) -> u32 {
         let b = &self.bodies;
         let mut need = 1.0f64;
         if self.effects.collisions.is_some() {
@@ -391,22 +399,26 @@ impl Lockstep {
             }
             need = need.max(worst * span / MAX_DRAG_STEP);
         }
-        if let Some(att) = &self.effects.attraction {
-            // O(n²), like the attraction pass itself.
-            let mut worst = 0.0f64;
-            for i in 0..b.len() {
-                for j in (i + 1)..b.len() {
-                    worst = worst.max(attraction_rate_squared(
-                        b.position[i],
-                        b.mass[i],
-                        b.radius[i],
-                        b.position[j],
-                        b.mass[j],
-                        b.radius[j],
-                        att,
-                    ));
+        if self.effects.attraction.is_some() {
+            // The attraction pass measures the fastest orbit rate while it sums the forces
+            // (exactly for the pairs it sums exactly, from a far group's whole mass for the tree),
+            // so this costs nothing: the rate is that of the last sub-step's force evaluations, a
+            // sub-step old. That is close enough: at ω·h ≤ MAX_ORBIT_STEP a pair falling together
+            // at up to its escape speed (√2·ω·r) closes by at most 30 % of its distance in one
+            // sub-step, and the next sub-step is judged by the new rate. Only when there were none
+            // (the first step, or balls added or removed since) is it measured now, by one
+            // evaluation.
+            let worst = match self.forces.take_orbit_rate_squared() {
+                Some(w) => w,
+                None => {
+                    let props = crate::physics::BodyProps {
+                        mass: &b.mass,
+                        inverse_mass: &b.inverse_mass,
+                        diameter: &b.diameter,
+                    };
+                    self.forces.orbit_rate_squared(props, &b.position)
                 }
-            }
+            };
             need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
         }
         if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) }
@@ -462,16 +474,19 @@ impl Lockstep {
             _ => None,
         };
         let Bodies { position, velocity, mass, inverse_mass, diameter, .. } = &mut self.bodies;
-        let (forces, method) = (&self.forces, self.integrator);
-        let velocity_dependent = forces.depends_on_velocity();
-        if !forces.is_local() {
+        let method = self.integrator;
+        let velocity_dependent = self.forces.depends_on_velocity();
+        if !self.forces.is_local() {
             self.scratch.resize_with(1, Default::default);
             let props = BodyProps { mass, inverse_mass, diameter };
+            // `&mut`: the attraction pass builds its tree and keeps the orbit rate it met.
+            let forces = &mut self.forces;
             integrate(method, dt, position, velocity, velocity_dependent, &mut self.scratch[0], |x, v, a| {
                 forces.accelerations(props, pull, x, v, a)
             });
             return;
         }
+        let forces = &self.forces;
         self.scratch.resize_with(position.len().div_ceil(CHUNK), Default::default);
         let (mass, inverse_mass, diameter) = (&mass[..], &inverse_mass[..], &diameter[..]);
         let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], scratch: &mut IntegratorScratch| {
@@ -491,7 +506,7 @@ impl Lockstep {
                 diameter: &diameter[range],
             };
             integrate(method, dt, x, v, velocity_dependent, scratch, |x, v, a| {
-                forces.accelerations(props, pull, x, v, a)
+                forces.local_accelerations(props, pull, x, v, a)
             });
         };
         match pool {

@@ -14,14 +14,16 @@ use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 
 use crate::physics::{
-    AIR_DENSITY, AIR_VISCOSITY, Attraction, Ball, BallId, BallKind, Collisions, Drag, Effects, Field, Gravity,
-    Integrator, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY,
+    AIR_DENSITY, AIR_VISCOSITY, Attraction, Ball, BallId, BallKind, Collisions, DEFAULT_OPENING_ANGLE, Drag, Effects,
+    Field, Gravity, Integrator, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY,
 };
 
 /// The ball limit when a scene does not set one (the original design's 1,024).
 pub const DEFAULT_MAX_BALLS: usize = 1024;
 /// No scene may ask for more balls than this.
 pub const HARD_MAX_BALLS: usize = 1_000_000;
+/// Largest Barnes–Hut opening angle a scene may ask for: beyond it the tree's error grows fast.
+pub const MAX_OPENING_ANGLE: f64 = 1.0;
 
 /// A scene that has been read and checked: every number finite and in range, every ball inside
 /// the field, no two listed balls overlapping.
@@ -203,10 +205,12 @@ impl Default for DragSpec {
 #[serde(deny_unknown_fields, rename_all = "kebab-case", default)]
 struct AttractionSpec {
     g_constant: f64,
+    /// Barnes–Hut opening angle θ for large fields; 0 = the direct sum always.
+    opening_angle: f64,
 }
 impl Default for AttractionSpec {
     fn default() -> Self {
-        AttractionSpec { g_constant: NEWTON_G }
+        AttractionSpec { g_constant: NEWTON_G, opening_angle: DEFAULT_OPENING_ANGLE }
     }
 }
 
@@ -572,8 +576,18 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
         effects.drag = Some(drag);
     }
     if let Some(a) = &file.effects.attraction {
-        let p = with(&with(&fx, Key("attraction")), Key("g-constant"));
-        effects.attraction = Some(Attraction { g_constant: c.non_negative(&p, a.g_constant)? });
+        let base = with(&fx, Key("attraction"));
+        let g_constant = c.non_negative(&with(&base, Key("g-constant")), a.g_constant)?;
+        let p = with(&base, Key("opening-angle"));
+        let opening_angle = a.opening_angle;
+        if !(0.0..=MAX_OPENING_ANGLE).contains(&opening_angle) {
+            return Err(c.invalid(
+                p,
+                opening_angle,
+                format!("must be between 0 (the direct sum always) and {MAX_OPENING_ANGLE}"),
+            ));
+        }
+        effects.attraction = Some(Attraction { g_constant, opening_angle });
     }
 
     // Balls: checked one by one, then for overlaps, then generated around them.

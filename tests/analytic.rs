@@ -74,7 +74,8 @@ fn drag_fall_follows_tanh_to_terminal_speed() {
 #[test]
 fn circular_orbit_returns_after_one_kepler_period() {
     let (g, m1, m2, a) = (1.0, 100.0, 1.0, 10.0);
-    let effects = Effects { attraction: Some(Attraction { g_constant: g }), ..Effects::default() };
+    let effects =
+        Effects { attraction: Some(Attraction { g_constant: g, ..Attraction::default() }), ..Effects::default() };
     let mu = g * (m1 + m2);
     let v_rel = (mu / a).sqrt();
     let c = DVec2::splat(5.0e5);

@@ -378,6 +378,27 @@ fn scene_dt_not_positive() {
 }
 
 #[test]
+fn scene_opening_angle_outside_its_range() {
+    let m = scene_err(&format!("{NAME}[effects.attraction]\ng-constant = 1.0\nopening-angle = -0.1\n"));
+    assert_at(
+        &m,
+        "x.toml",
+        4,
+        &["`effects.attraction.opening-angle` = -0.1:", "between 0 (the direct sum always) and 1"],
+    );
+    let m = scene_err(&format!("{NAME}[effects]\nattraction = {{ opening-angle = 1.5 }}\n"));
+    assert_at(&m, "x.toml", 3, &["`effects.attraction.opening-angle` = 1.5:", "between 0"]);
+    let m = scene_err(&format!("{NAME}[effects.attraction]\nopening-angle = nan\n"));
+    assert_at(&m, "x.toml", 3, &["`effects.attraction.opening-angle` = NaN:"]);
+    let m = scene_err(&format!("{NAME}[effects.attraction]\nopening-angle = inf\n"));
+    assert_at(&m, "x.toml", 3, &["`effects.attraction.opening-angle` = inf:"]);
+    let m = scene_err(&format!("{NAME}[effects.attraction]\nopening-angle = \"wide\"\n"));
+    assert_at(&m, "x.toml", 3, &["`effects.attraction.opening-angle`", "invalid type"]);
+    let m = scene_err(&format!("{NAME}[effects.attraction]\nopening_angle = 0.5\n"));
+    assert_has(&m, &["x.toml:3:", "opening_angle"]);
+}
+
+#[test]
 fn scene_validation_errors_have_the_right_line() {
     // A scene laid out like the shipped ones, with comments and blank lines before the bad value.
     let text = r#"name = "lines"

@@ -5,13 +5,14 @@ mod common;
 
 use ballfield::Lockstep;
 use ballfield::physics::{
-    Attraction, Drag, Effects, Gravity, Integrator, attraction_force, attraction_potential, disc_area, drag_force,
+    Attraction, DEFAULT_OPENING_ANGLE, Drag, Effects, Gravity, Integrator, attraction_force, attraction_potential,
+    disc_area, drag_force,
 };
 use ballfield::scenes;
 use common::*;
 use glam::DVec2;
 
-const A: Attraction = Attraction { g_constant: 2.0 };
+const A: Attraction = Attraction { g_constant: 2.0, opening_angle: DEFAULT_OPENING_ANGLE };
 
 #[test]
 fn attraction_is_newton_outside_contact_and_finite_down_to_coincidence() {
@@ -57,7 +58,8 @@ fn drag_follows_its_formulas() {
 /// without a singular kick: energy stays bounded and nothing becomes NaN.
 #[test]
 fn attracting_balls_fall_through_each_other_without_a_singularity() {
-    let effects = Effects { attraction: Some(Attraction { g_constant: 1.0 }), ..Effects::default() };
+    let effects =
+        Effects { attraction: Some(Attraction { g_constant: 1.0, ..Attraction::default() }), ..Effects::default() };
     let balls =
         [ball(0, 5.0e5 - 5.0, 5.0e5, 0.0, 0.0, 1000.0, 2.0), ball(1, 5.0e5 + 5.0, 5.0e5, 0.0, 0.0, 1000.0, 2.0)];
     let mut e = engine(open_field(), effects, Integrator::Leapfrog, 1e-4, &balls);
@@ -80,7 +82,7 @@ fn the_report_lists_exactly_the_effects_that_ran() {
         ("gas", vec!["collisions"]),
         ("gravity", vec!["gravity", "collisions"]),
         ("default", vec!["gravity", "drag", "collisions"]),
-        ("attraction", vec!["attraction", "collisions"]),
+        ("attraction", vec!["attraction (direct)", "collisions"]),
     ] {
         let scene = scenes::builtin(name).unwrap().unwrap();
         assert_eq!(Lockstep::new(&scene).active_effects(), expected, "scene {name}");

@@ -105,7 +105,7 @@ fn random_effects() -> impl Strategy<Value = Effects> {
     (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), 0.0..=1.0f64).prop_map(|(g, d, a, c, e)| Effects {
         gravity: g.then(Gravity::default),
         drag: d.then(Drag::default),
-        attraction: a.then_some(Attraction { g_constant: 1.0 }),
+        attraction: a.then_some(Attraction { g_constant: 1.0, ..Attraction::default() }),
         collisions: c.then_some(Collisions { restitution: e }),
     })
 }

@@ -211,8 +211,10 @@ impl Exact {
         };
         let measured = match self {
             Exact::Kepler(orbit) => {
-                let effects =
-                    Effects { attraction: Some(Attraction { g_constant: orbit.g_constant }), ..Effects::default() };
+                let effects = Effects {
+                    attraction: Some(Attraction { g_constant: orbit.g_constant, ..Attraction::default() }),
+                    ..Effects::default()
+                };
                 let energy = |b: &Bodies| kinetic_energy(b) + attraction_potential_energy(b, &effects);
                 let relative = |b: &Bodies| b.position[1] - b.position[0];
                 let (e0, e0_twin) = (energy(engine.bodies()), energy(twin.bodies()));

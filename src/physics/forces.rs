@@ -5,7 +5,8 @@
 
 use glam::DVec2;
 
-use super::effects::{Attraction, Drag, Effects, attraction_force, drag_force};
+use super::barnes_hut::BarnesHut;
+use super::effects::{Attraction, Drag, Effects, attraction_pair, drag_force};
 
 /// Per-ball constants that forces need, as parallel slices indexed like the state.
 #[derive(Clone, Copy, Debug)]
@@ -30,11 +31,54 @@ enum ForcePass {
     Attraction(Attraction),
 }
 
+/// Fields of at least this many balls compute attraction with the Barnes–Hut tree, smaller ones
+/// with the direct sum. Measured with `cargo bench --bench attraction` (one force evaluation, the
+/// default opening angle): the two cost the same near this count, the tree wins above it.
+pub const TREE_MIN_BALLS: usize = 128;
+
+/// How the attraction pass sums the pairs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AttractionMethod {
+    /// Every pair, once each (Newton's third law), in index order: O(n²), exact.
+    Direct,
+    /// The Barnes–Hut tree ([`BarnesHut`]): O(n log n), far groups approximated.
+    Tree,
+}
+
+impl AttractionMethod {
+    /// The method for a field of `balls` balls: the tree from [`TREE_MIN_BALLS`] on, unless the
+    /// opening angle is 0 (the direct sum always).
+    pub fn choose(balls: usize, attraction: &Attraction) -> Self {
+        if attraction.opening_angle > 0.0 && balls >= TREE_MIN_BALLS {
+            AttractionMethod::Tree
+        } else {
+            AttractionMethod::Direct
+        }
+    }
+
+    /// The pass's name in reports: `attraction (direct)` or `attraction (tree)`.
+    pub fn label(self) -> &'static str {
+        match self {
+            AttractionMethod::Direct => "attraction (direct)",
+            AttractionMethod::Tree => "attraction (tree)",
+        }
+    }
+}
+
 /// The force passes that run each step, in a fixed order (gravity, drag, attraction; then the
 /// pull, when one is set). Deterministic: the order of floating-point sums never changes.
-#[derive(Clone, Debug, Default, PartialEq)]
+///
+/// Besides the list it keeps scratch memory (the tree) and the fastest orbit rate the attraction
+/// pass met since it was last asked for (see [`Forces::take_orbit_rate_squared`]).
+#[derive(Clone, Debug, Default)]
 pub struct Forces {
     passes: Vec<ForcePass>,
+    /// `None`: chosen by ball count (see [`AttractionMethod::choose`]).
+    method: Option<AttractionMethod>,
+    tree: BarnesHut,
+    radius: Vec<f64>,
+    scratch: Vec<DVec2>,
+    orbit_rate_squared: Option<f64>,
 }
 
 impl Forces {
@@ -49,19 +93,34 @@ impl Forces {
         if let Some(a) = effects.attraction {
             passes.push(ForcePass::Attraction(a));
         }
-        Forces { passes }
+        Forces { passes, ..Forces::default() }
     }
 
-    /// Names of the passes that run, for reports.
-    pub fn pass_names(&self) -> Vec<&'static str> {
+    /// Names of the passes that run for a field of `balls` balls, for reports; attraction says
+    /// how it is summed (`attraction (direct)` or `attraction (tree)`).
+    pub fn pass_names(&self, balls: usize) -> Vec<&'static str> {
         self.passes
             .iter()
             .map(|p| match p {
                 ForcePass::Gravity(_) => "gravity",
                 ForcePass::Drag(_) => "drag",
-                ForcePass::Attraction(_) => "attraction",
+                ForcePass::Attraction(a) => self.method.unwrap_or(AttractionMethod::choose(balls, a)).label(),
             })
             .collect()
+    }
+
+    /// How attraction is summed for a field of `balls` balls; `None` when attraction is off.
+    pub fn attraction_method(&self, balls: usize) -> Option<AttractionMethod> {
+        self.passes.iter().find_map(|p| match p {
+            ForcePass::Attraction(a) => Some(self.method.unwrap_or(AttractionMethod::choose(balls, a))),
+            _ => None,
+        })
+    }
+
+    /// Fixes how attraction is summed whatever the ball count (benches and tests); `None` goes
+    /// back to the automatic choice.
+    pub fn set_attraction_method(&mut self, method: Option<AttractionMethod>) {
+        self.method = method;
     }
 
     /// Whether the acceleration depends on velocity (drag is on).
@@ -80,12 +139,42 @@ impl Forces {
         self.passes.is_empty()
     }
 
+    /// The largest `ω²` (see [`crate::physics::attraction_rate_squared`]) the attraction pass met in the force
+    /// evaluations since the last call, and forgets it; `None` if there was none (attraction off,
+    /// or no evaluation since). The engines split their steps by it without a pass of their own.
+    pub fn take_orbit_rate_squared(&mut self) -> Option<f64> {
+        self.orbit_rate_squared.take()
+    }
+
+    /// Forgets the orbit rate met so far (the balls changed: it no longer describes them).
+    pub fn forget_orbit_rate(&mut self) {
+        self.orbit_rate_squared = None;
+    }
+
+    /// The largest `ω²` of the balls at `pos` now, by a force evaluation of the attraction pass
+    /// alone (0 with attraction off). For when [`Forces::take_orbit_rate_squared`] has nothing.
+    pub fn orbit_rate_squared(&mut self, props: BodyProps<'_>, pos: &[DVec2]) -> f64 {
+        let Some(attraction) = self.passes.iter().find_map(|p| match p {
+            ForcePass::Attraction(a) => Some(*a),
+            _ => None,
+        }) else {
+            return 0.0;
+        };
+        let mut acc = std::mem::take(&mut self.scratch);
+        acc.clear();
+        acc.resize(pos.len(), DVec2::ZERO);
+        let worst = self.attraction(props, pos, &attraction, &mut acc);
+        self.scratch = acc;
+        worst
+    }
+
     /// Fills `acc[i]` with the acceleration of ball i in the state (`pos`, `vel`), plus `pull`.
     ///
     /// Attraction is the direct O(n²) sum over pairs, each pair visited once (Newton's third law),
-    /// in index order.
+    /// in index order, for fields below [`TREE_MIN_BALLS`]; the Barnes–Hut tree above. `&mut`:
+    /// the tree is built in the memory kept here, and the orbit rate met is kept.
     pub fn accelerations(
-        &self,
+        &mut self,
         props: BodyProps<'_>,
         pull: Option<PointForce>,
         pos: &[DVec2],
@@ -95,42 +184,107 @@ impl Forces {
         let n = pos.len();
         debug_assert!(vel.len() == n && acc.len() == n && props.mass.len() == n);
         acc.fill(DVec2::ZERO);
-        for pass in &self.passes {
-            match *pass {
-                ForcePass::Gravity(g) => {
-                    for a in acc.iter_mut() {
-                        *a += g;
-                    }
-                }
-                ForcePass::Drag(drag) => {
-                    for i in 0..n {
-                        acc[i] += drag_force(vel[i], props.diameter[i], &drag) * props.inverse_mass[i];
-                    }
-                }
+        for k in 0..self.passes.len() {
+            match self.passes[k] {
                 ForcePass::Attraction(attraction) => {
-                    for i in 0..n {
-                        let (pi, mi, ri) = (pos[i], props.mass[i], 0.5 * props.diameter[i]);
-                        let mut sum = DVec2::ZERO;
-                        for j in (i + 1)..n {
-                            let f = attraction_force(
-                                pi,
-                                mi,
-                                ri,
-                                pos[j],
-                                props.mass[j],
-                                0.5 * props.diameter[j],
-                                &attraction,
-                            );
-                            sum += f;
-                            acc[j] -= f * props.inverse_mass[j];
-                        }
-                        acc[i] += sum * props.inverse_mass[i];
-                    }
+                    let worst = self.attraction(props, pos, &attraction, acc);
+                    self.orbit_rate_squared = Some(self.orbit_rate_squared.map_or(worst, |w| w.max(worst)));
                 }
+                pass => local_pass(pass, props, vel, acc),
             }
         }
-        if let Some(p) = pull {
-            acc[p.index] += p.force * props.inverse_mass[p.index];
+        add_pull(pull, props, acc);
+    }
+
+    /// [`Forces::accelerations`] for forces that are [local](Forces::is_local) (no attraction):
+    /// `&self`, so that groups of balls can be evaluated on several threads at once. The same
+    /// bits as `accelerations`. Panics if attraction is on.
+    pub fn local_accelerations(
+        &self,
+        props: BodyProps<'_>,
+        pull: Option<PointForce>,
+        pos: &[DVec2],
+        vel: &[DVec2],
+        acc: &mut [DVec2],
+    ) {
+        assert!(self.is_local(), "attraction couples the balls: use `Forces::accelerations`");
+        let n = pos.len();
+        debug_assert!(vel.len() == n && acc.len() == n && props.mass.len() == n);
+        acc.fill(DVec2::ZERO);
+        for &pass in &self.passes {
+            local_pass(pass, props, vel, acc);
+        }
+        add_pull(pull, props, acc);
+    }
+
+    /// Adds the attraction accelerations to `acc`; returns the largest `ω²` met.
+    fn attraction(&mut self, props: BodyProps<'_>, pos: &[DVec2], attraction: &Attraction, acc: &mut [DVec2]) -> f64 {
+        match self.method.unwrap_or(AttractionMethod::choose(pos.len(), attraction)) {
+            AttractionMethod::Direct => attraction_direct(props, pos, attraction, acc),
+            AttractionMethod::Tree => {
+                self.radius.clear();
+                self.radius.extend(props.diameter.iter().map(|d| 0.5 * d));
+                self.tree.build(pos, props.mass, &self.radius, attraction);
+                let mut worst = 0.0f64;
+                // In tree order (neighbours one after the other): the same results as in index
+                // order, with fewer cache misses.
+                for &i in self.tree.order() {
+                    let i = i as usize;
+                    let (f, w) = self.tree.force_and_rate(i);
+                    acc[i] += f * props.inverse_mass[i];
+                    worst = worst.max(w);
+                }
+                worst
+            }
         }
     }
+}
+
+/// Adds the acceleration of a pass that reads each ball alone (gravity, drag).
+#[inline]
+fn local_pass(pass: ForcePass, props: BodyProps<'_>, vel: &[DVec2], acc: &mut [DVec2]) {
+    match pass {
+        ForcePass::Gravity(g) => {
+            for a in acc.iter_mut() {
+                *a += g;
+            }
+        }
+        ForcePass::Drag(drag) => {
+            for i in 0..acc.len() {
+                acc[i] += drag_force(vel[i], props.diameter[i], &drag) * props.inverse_mass[i];
+            }
+        }
+        ForcePass::Attraction(_) => unreachable!("attraction is not a local pass"),
+    }
+}
+
+/// Adds the pull on one ball, last (after every pass).
+#[inline]
+fn add_pull(pull: Option<PointForce>, props: BodyProps<'_>, acc: &mut [DVec2]) {
+    if let Some(p) = pull {
+        acc[p.index] += p.force * props.inverse_mass[p.index];
+    }
+}
+
+/// The direct sum: adds every ball's acceleration from every other to `acc`, each pair visited
+/// once (Newton's third law) in index order; returns the largest pair `ω²` (see
+/// [`attraction_pair`]). The forces are bit for bit those of the sum before the tree existed.
+fn attraction_direct(props: BodyProps<'_>, pos: &[DVec2], attraction: &Attraction, acc: &mut [DVec2]) -> f64 {
+    let n = pos.len();
+    let mut worst = 0.0f64;
+    for i in 0..n {
+        let (pi, mi, ri, inv_mi) = (pos[i], props.mass[i], 0.5 * props.diameter[i], props.inverse_mass[i]);
+        let mut sum = DVec2::ZERO;
+        for j in (i + 1)..n {
+            let inv_mj = props.inverse_mass[j];
+            // The same force as `attraction_force`, and the pair's ω² for one more multiplication.
+            let (f, k) = attraction_pair(pi, mi, ri, pos[j], props.mass[j], 0.5 * props.diameter[j], attraction);
+            let w = k * (inv_mi + inv_mj);
+            worst = if w > worst { w } else { worst };
+            sum += f;
+            acc[j] -= f * inv_mj;
+        }
+        acc[i] += sum * inv_mi;
+    }
+    worst
 }

@@ -4,6 +4,7 @@
 //! re-exported here (Rapier's habit).
 
 mod ball;
+mod barnes_hut;
 mod bodies;
 mod broad_phase;
 mod contact;
@@ -14,6 +15,7 @@ mod forces;
 mod integrator;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
+pub use barnes_hut::{BarnesHut, LEAF_SIZE};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
 pub use contact::{
@@ -25,10 +27,11 @@ pub use diagnostics::{
     momentum,
 };
 pub use effects::{
-    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, Drag, Effects, Gravity, MAX_DRAG_STEP, MAX_ORBIT_STEP,
-    NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force, attraction_potential,
-    attraction_rate_squared, drag_force, drag_rate, gravity_force, gravity_potential, quadratic_terminal_speed,
+    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, DEFAULT_OPENING_ANGLE, Drag, Effects, Gravity, MAX_DRAG_STEP,
+    MAX_ORBIT_STEP, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force, attraction_pair,
+    attraction_potential, attraction_rate_squared, drag_force, drag_rate, gravity_force, gravity_potential,
+    quadratic_terminal_speed,
 };
 pub use field::{Field, Wall, WallImpulses};
-pub use forces::{BodyProps, Forces, PointForce};
+pub use forces::{AttractionMethod, BodyProps, Forces, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
