@@ -9,7 +9,7 @@ use cpu_time::ProcessTime;
 
 use crate::lockstep::Lockstep;
 use crate::physics::Integrator;
-use crate::physics::{Bodies, Diagnostics, measure};
+use crate::physics::{AttractionMethod, Bodies, Diagnostics, measure};
 use crate::report::ThreadedFigures;
 use crate::report::{MemoryUse, RunReport};
 use crate::runtime::{Runtime, RuntimeConfig, RuntimeError};
@@ -224,7 +224,13 @@ pub(crate) fn finish_threaded(
         wall_seconds,
         steps_per_second: stats.ball_rate_median,
         balls: bodies.len(),
-        active_effects: scene.effects.active_names().iter().map(|s| s.to_string()).collect(),
+        // Each ball thread sums the others' pull itself, directly (the tree is lockstep's).
+        active_effects: scene
+            .effects
+            .active_names()
+            .iter()
+            .map(|&s| if s == "attraction" { AttractionMethod::Direct.label() } else { s }.to_string())
+            .collect(),
         start,
         end,
         phases: None,

@@ -411,11 +411,7 @@ impl Lockstep {
             let worst = match self.forces.take_orbit_rate_squared() {
                 Some(w) => w,
                 None => {
-                    let props = crate::physics::BodyProps {
-                        mass: &b.mass,
-                        inverse_mass: &b.inverse_mass,
-                        diameter: &b.diameter,
-                    };
+                    let props = BodyProps { mass: &b.mass, inverse_mass: &b.inverse_mass, diameter: &b.diameter };
                     self.forces.orbit_rate_squared(props, &b.position)
                 }
             };

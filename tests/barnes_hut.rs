@@ -308,3 +308,87 @@ fn the_scene_sets_the_opening_angle() {
     assert_eq!(zero, Attraction { g_constant: 2.0, opening_angle: 0.0 });
     assert_eq!(AttractionMethod::choose(100_000, &zero), AttractionMethod::Direct);
 }
+
+/// Balls on a square lattice, 3 m apart, 1 kg, 1 m across, at rest.
+fn lattice(n: usize) -> Vec<ballfield::physics::Ball> {
+    use ballfield::physics::{Ball, BallId, BallKind};
+    let side = (n as f64).sqrt().ceil() as usize;
+    (0..n)
+        .map(|k| Ball {
+            id: BallId(k as u32),
+            kind: BallKind::Ball,
+            position: DVec2::new(5.0 + 3.0 * (k % side) as f64, 5.0 + 3.0 * (k / side) as f64),
+            velocity: DVec2::ZERO,
+            mass: 1.0,
+            diameter: 1.0,
+        })
+        .collect()
+}
+
+/// The engine reports which sum it uses for the balls it has, and switches as balls come and go.
+#[test]
+fn the_engine_reports_the_switch() {
+    use ballfield::Lockstep;
+    use ballfield::physics::{Field, Integrator};
+    let effects =
+        Effects { attraction: Some(Attraction { g_constant: 1e-3, ..Attraction::default() }), ..Effects::default() };
+    let field = Field { width: 200.0, height: 200.0, restitution: 1.0 };
+    let mut e = Lockstep::from_parts(field, effects, Integrator::Leapfrog, 1e-3, 1_000, &lattice(TREE_MIN_BALLS));
+    assert_eq!(e.active_effects(), vec!["attraction (tree)"]);
+    e.run(3);
+    e.remove_last().unwrap();
+    assert_eq!(e.active_effects(), vec!["attraction (direct)"]);
+    e.run(3);
+    assert!(e.bodies().position.iter().all(|p| p.is_finite()));
+}
+
+/// The tree's pass feeds the step splitting: a tight, heavy pair among many balls makes the
+/// engine sub-step, exactly as with the direct sum.
+#[test]
+fn a_fast_orbit_splits_the_step_with_the_tree_too() {
+    use ballfield::Lockstep;
+    use ballfield::physics::{Field, Integrator};
+    let field = Field { width: 200.0, height: 200.0, restitution: 1.0 };
+    let mut balls = lattice(400);
+    // Two 1e4 kg balls 1.2 m apart at G = 10: ω² = G·2e4/1.2³ ≈ 1.16e5 /s², so ω·h ≈ 0.34 at
+    // h = 1 ms, above MAX_ORBIT_STEP = 0.2: every step must be split at least in two.
+    balls[0].mass = 1e4;
+    balls[1].mass = 1e4;
+    balls[1].position = balls[0].position + DVec2::new(1.2, 0.0);
+    for theta in [DEFAULT_OPENING_ANGLE, 0.0] {
+        let attraction = Attraction { g_constant: 10.0, opening_angle: theta };
+        let effects = Effects { attraction: Some(attraction), ..Effects::default() };
+        let mut e = Lockstep::from_parts(field, effects, Integrator::Leapfrog, 1e-3, 1_000, &balls);
+        let expected = if theta > 0.0 { "attraction (tree)" } else { "attraction (direct)" };
+        assert_eq!(e.active_effects(), vec![expected]);
+        e.run(10);
+        let c = e.counters();
+        assert!(c.substeps >= 2 * c.steps, "θ = {theta}: {} sub-steps in {} steps", c.substeps, c.steps);
+    }
+}
+
+/// The headless report names the sum that ran.
+#[test]
+fn the_headless_report_names_the_tree() {
+    let dir = std::env::temp_dir().join(format!("ballfield-barnes-hut-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("tree.toml");
+    std::fs::write(
+        &scene,
+        "name = \"tree\"\n[effects]\nattraction = { g-constant = 0.001, opening-angle = 0.6 }\n\
+         [[generate]]\ncount = 300\ndiameter = 1.0\nmass = 1.0\n",
+    )
+    .unwrap();
+    let report = dir.join("r.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ballfield"))
+        .args(["headless", "--scene"])
+        .arg(&scene)
+        .args(["--steps", "5", "--quiet", "--report"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["active_effects"], serde_json::json!(["attraction (tree)"]));
+    std::fs::remove_dir_all(&dir).ok();
+}
