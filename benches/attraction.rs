@@ -4,11 +4,12 @@
 //!
 //! Groups (every bench reports `Throughput::Elements(balls)`):
 //! - `attraction/direct/N` and `attraction/tree/N` — a uniform field of N balls at the default
-//!   opening angle, N from 250 to 10,000 (and 100,000 for the tree alone): where the two cross
+//!   opening angle, N from 50 to 10,000 (and 100,000 for the tree alone): where the two cross
 //!   is [`ballfield::physics::TREE_MIN_BALLS`];
 //! - `attraction/tree-clustered/10000` — the same count in ten dense clusters;
 //! - `attraction/opening-angle/θ` — the tree at 10,000 balls for θ from 0.3 to 0.9: the cost side
-//!   of the accuracy sweep in `tests/barnes_hut.rs` (`opening_angle_sweep`).
+//!   of the accuracy sweep in `tests/barnes_hut.rs` (`opening_angle_sweep`);
+//! - `attraction/tree-build/N` — the build alone at 10,000 and 100,000 balls.
 //!
 //! The field: balls of 1 m and 1 kg at random (fixed seed) in a square where they cover 20 % of
 //! the area (about 2 m apart, as in the step bench). The state does not move between iterations.
@@ -19,7 +20,7 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use ballfield::physics::{Attraction, AttractionMethod, BodyProps, Effects, Forces};
+use ballfield::physics::{Attraction, AttractionMethod, BarnesHut, BodyProps, Effects, Forces};
 use cpu_time::ThreadTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
@@ -167,6 +168,37 @@ fn bench_attraction(c: &mut Criterion) {
     let balls = Balls::uniform(10_000);
     for t in [0.3, 0.5, 0.7, 0.9] {
         bench(&mut group, BenchmarkId::new("opening-angle", t), &balls, forces(AttractionMethod::Tree, t));
+    }
+    // The build alone (sort, arena, moments): the part of a tree evaluation that is not a query.
+    let clock = Clock::from_env();
+    for n in [10_000, 100_000] {
+        let balls = Balls::uniform(n);
+        let radius: Vec<f64> = balls.diameter.iter().map(|d| 0.5 * d).collect();
+        let attraction = Attraction { g_constant: 1.0, opening_angle: theta };
+        let mut tree = BarnesHut::new();
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(BenchmarkId::new("tree-build", n), |b| {
+            b.iter_custom(|iters| {
+                let mut run = || {
+                    for _ in 0..iters {
+                        tree.build(&balls.pos, &balls.mass, &radius, &attraction);
+                        black_box(tree.node_count());
+                    }
+                };
+                match clock {
+                    Clock::Wall => {
+                        let start = Instant::now();
+                        run();
+                        start.elapsed()
+                    }
+                    Clock::ThreadCpu => {
+                        let start = ThreadTime::now();
+                        run();
+                        start.elapsed()
+                    }
+                }
+            })
+        });
     }
     group.finish();
 }
