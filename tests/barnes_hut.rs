@@ -221,6 +221,24 @@ fn coincident_balls_do_not_panic_or_make_nan() {
     assert!(acc.iter().all(|a| a.is_finite()) && rate.is_finite());
 }
 
+/// A non-finite position (a state gone bad elsewhere) gives non-finite forces, as the direct sum
+/// would, but never a panic or an endless build.
+#[test]
+fn non_finite_positions_do_not_panic() {
+    let att = Attraction { g_constant: 1.0, ..Attraction::default() };
+    let mut pos: Vec<DVec2> = (0..500).map(|k| DVec2::new((k % 25) as f64, (k / 25) as f64)).collect();
+    let n = pos.len();
+    let mut tree = BarnesHut::new();
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        pos[7] = DVec2::new(bad, 3.0);
+        pos[300] = DVec2::new(2.0, bad);
+        tree.build(&pos, &vec![1.0; n], &vec![0.25; n], &att);
+        for i in [0, 7, 300, 499] {
+            let _ = tree.force_and_rate(i);
+        }
+    }
+}
+
 /// The same input gives the same bits, whatever the order the balls are asked in and however
 /// often the tree is rebuilt in the same memory.
 #[test]
