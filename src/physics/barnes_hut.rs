@@ -27,7 +27,9 @@ use glam::DVec2;
 use super::effects::attraction_force;
 use super::effects::{Attraction, attraction_pair};
 
-/// Most balls a leaf holds (a leaf is opened pair by pair). Measured: 8 is fastest at 10,000 balls.
+/// Most balls a leaf holds (a leaf is opened pair by pair). Measured (`cargo bench --bench
+/// attraction`, one force evaluation): 4 is the fastest at 1,000 balls and 16 at 10,000; 8 is
+/// within 13 % and 9 % of them.
 pub const LEAF_SIZE: usize = 8;
 
 /// Bits of a Morton code per axis: the tree is at most this deep. Balls closer than the root's
@@ -121,7 +123,9 @@ impl BarnesHut {
     }
 
     /// The balls' indices in tree order (nearby balls next to each other). Querying in this order
-    /// is faster than in index order; the results are the same.
+    /// is faster than in a random index order (measured: 15 against 18 ms at 10,000 balls, 0.22
+    /// against 0.34 s at 100,000: the walks of neighbours touch the same nodes); the results are
+    /// the same.
     pub fn order(&self) -> &[u32] {
         &self.index
     }
