@@ -8,7 +8,8 @@
 //! - `gravity` — a uniform force: one cheap pass per force evaluation;
 //! - `gravity+drag` — a velocity-dependent force: leapfrog and Yoshida solve their kicks as
 //!   implicit midpoints (2 and 3 extra evaluations per kick);
-//! - `attraction` — the O(n²) pair sum, where the number of force evaluations per step (1 for
+//! - `attraction` — the pair sum (direct at 10 and 100 balls, the Barnes–Hut tree at 1,000: see
+//!   `TREE_MIN_BALLS`), where the number of force evaluations per step (1 for
 //!   the Euler methods and leapfrog, 3 for Yoshida, 4 for RK4) is the whole story.
 //!
 //! No collisions: this measures the integrators, not the contact solver (benches/step.rs
