@@ -14,6 +14,13 @@ mod monitor;
 mod shared;
 mod table;
 
+/// What [`table`] is built on. `tests/table_loom.rs` compiles `table.rs` itself beside a `sync`
+/// of its own that names loom's atomics instead, and model-checks the real protocol.
+mod sync {
+    pub(crate) use std::hint::spin_loop;
+    pub(crate) use std::sync::atomic::{AtomicU64, Ordering, fence};
+}
+
 use std::collections::BTreeSet;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;

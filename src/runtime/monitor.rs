@@ -53,11 +53,21 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     let mut broad_phase = BroadPhase::new();
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     let mut sent: Vec<Sent> = vec![Sent::default(); shared.table.capacity()];
+    // The parameters change rarely (panel, hotkeys): re-read them only when their generation
+    // moved, as the ball threads do. Acquire pairs with the Release increment in
+    // `Shared::update_params`: seeing a generation means the read lock returns what was written
+    // before it.
+    let mut generation = shared.params_generation.load(Ordering::Acquire);
+    let mut params = shared.params.read().clone();
     let mut next = Instant::now();
     // Acquire/Release on the flag: the runtime clears it and then joins; nothing else rides on it.
     while shared.monitor_running.load(Ordering::Acquire) {
         let pass_start = Instant::now();
-        let params = shared.params.read().clone();
+        let g = shared.params_generation.load(Ordering::Acquire);
+        if g != generation {
+            generation = g;
+            params = shared.params.read().clone();
+        }
         // Paused means everything stands still, contacts included (Relaxed: no data rides on it).
         let paused = shared.paused.load(Ordering::Relaxed);
         if let (Some(collisions), false) = (params.effects.collisions, paused) {

@@ -25,9 +25,11 @@
 //! by the next write's odd store and its fence in the same way). Together: if both loads of `seq`
 //! agree, every word read belongs to one write — no torn entry (x of one step with y of another).
 
-use std::sync::atomic::{AtomicU64, Ordering, fence};
-
 use glam::DVec2;
+
+// The atomics come from the parent module: std's here, loom's when `tests/table_loom.rs` compiles
+// this very file into a loom model (it puts its own `sync` beside it).
+use super::sync::{AtomicU64, Ordering, fence, spin_loop};
 
 use crate::physics::{Ball, BallId, BallKind, WallImpulses};
 
@@ -60,19 +62,21 @@ pub struct BallRecord {
     pub wall_impulses: WallImpulses,
 }
 
+/// One latched seqlock over `N` words (the table uses `N = WORDS`; the loom model also checks it
+/// with fewer words, so that it can afford more writes and readers).
 #[repr(align(128))] // one slot per pair of cache lines: writers of neighbouring slots don't false-share
-struct Slot {
+pub(crate) struct Slot<const N: usize> {
     seq: AtomicU64,
-    copies: [[AtomicU64; WORDS]; 2],
+    copies: [[AtomicU64; N]; 2],
 }
 
-impl Slot {
-    fn new() -> Self {
+impl<const N: usize> Slot<N> {
+    pub(crate) fn new() -> Self {
         Slot { seq: AtomicU64::new(0), copies: std::array::from_fn(|_| std::array::from_fn(|_| AtomicU64::new(0))) }
     }
 
     /// The latch write (see the module comment). Single writer only.
-    fn write_words(&self, words: &[u64; WORDS]) {
+    pub(crate) fn write_words(&self, words: &[u64; N]) {
         // Only this thread writes `seq`, so a relaxed load of it is exact.
         let seq = self.seq.load(Ordering::Relaxed);
         for (k, copy) in self.copies.iter().enumerate() {
@@ -87,11 +91,11 @@ impl Slot {
         }
     }
 
-    fn read_words(&self) -> [u64; WORDS] {
+    pub(crate) fn read_words(&self) -> [u64; N] {
         loop {
             let seq1 = self.seq.load(Ordering::Acquire);
             let copy = &self.copies[(seq1 & 1) as usize];
-            let mut raw = [0u64; WORDS];
+            let mut raw = [0u64; N];
             for (r, w) in raw.iter_mut().zip(copy) {
                 *r = w.load(Ordering::Relaxed);
             }
@@ -100,14 +104,14 @@ impl Slot {
             if self.seq.load(Ordering::Relaxed) == seq1 {
                 return raw;
             }
-            std::hint::spin_loop();
+            spin_loop();
         }
     }
 }
 
 /// The table: a fixed number of slots, allocated once.
 pub struct BallTable {
-    slots: Box<[Slot]>,
+    slots: Box<[Slot<WORDS>]>,
 }
 
 impl BallTable {
