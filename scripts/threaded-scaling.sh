@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # How the thread-per-ball runtime's update rate falls as the ball count grows.
 # Runs a gas of N balls (collisions on, no gravity or drag) for S wall-clock seconds each on
-# `headless --engine threaded` and prints one markdown row per N from the run reports.
+# `headless --engine threaded` and prints one markdown row per N from the run reports, with what
+# the rest of the machine was doing meanwhile (the machine's busy cores from /proc/stat minus the
+# run's own, and the load average before the run): ball threads are SCHED_IDLE and get only the
+# CPU others leave, so a figure taken while something else ran is not the runtime's.
 # Usage: scripts/threaded-scaling.sh [SECONDS] [N ...]     (default: 5 s; 64 256 1024 4096)
+# BALLFIELD_BALL_WAIT=sleep: the ball threads always sleep, never yield (for comparison).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 secs=${1:-5}
@@ -12,8 +16,10 @@ cargo build --release --quiet
 bin="${CARGO_TARGET_DIR:-target}/release/ballfield"
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-echo "| balls | update rate min /s | median /s | monitor passes /s | CPU cores | impulses sent = applied | dropped |"
-echo "|---:|---:|---:|---:|---:|---:|---:|"
+echo "| balls | update rate min /s | median /s | monitor passes /s | CPU cores | µs CPU per update | impulses sent / applied | dropped | others' cores | load before |"
+echo "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+# Busy jiffies (all but idle and iowait) and total jiffies of the whole machine.
+jiffies() { head -1 /proc/stat | awk '{t=0; for (i=2;i<=9;i++) t+=$i; print t-$5-$6, t}'; }
 for n in ${counts[@]}; do
   cat > "$dir/gas$n.toml" <<TOML
 name = "gas-$n"
@@ -30,11 +36,19 @@ diameter = 0.8
 mass = 1.0
 speed = 3.0
 TOML
+  load=$(cut -d' ' -f1 /proc/loadavg)
+  before=$(jiffies)
   "$bin" --scene "$dir/gas$n.toml" headless --engine threaded --duration "$secs" --report "$dir/r$n.json" -q
-  python3 - "$dir/r$n.json" "$n" <<'PY'
+  after=$(jiffies)
+  python3 - "$dir/r$n.json" "$n" "$before" "$after" "$load" "$(nproc)" <<'PY'
 import json, sys
-r = json.load(open(sys.argv[1])); t = r["runtime"]
-print(f"| {sys.argv[2]} | {t['ball_rate_min']:.0f} | {t['ball_rate_median']:.0f} | {t['monitor_passes_per_second']:.0f} | "
-      f"{t['cpu_cores_used']:.2f} | {t['impulses_sent']} = {t['impulses_applied']} | {t['messages_dropped']} |")
+r = json.load(open(sys.argv[1])); t = r["runtime"]; n = int(sys.argv[2])
+(b0, t0), (b1, t1) = (map(int, a.split()) for a in sys.argv[3:5])
+machine = int(sys.argv[6]) * (b1 - b0) / max(t1 - t0, 1)
+others = max(0.0, machine - t["cpu_cores_used"])
+per_update = 1e6 * t["cpu_cores_used"] / max(t["ball_rate_median"] * n, 1e-9)
+print(f"| {n} | {t['ball_rate_min']:.0f} | {t['ball_rate_median']:.0f} | {t['monitor_passes_per_second']:.0f} | "
+      f"{t['cpu_cores_used']:.2f} | {per_update:.1f} | {t['impulses_sent']} / {t['impulses_applied']} | "
+      f"{t['messages_dropped']} | {others:.2f} | {sys.argv[5]} |")
 PY
 done

@@ -151,11 +151,13 @@ pub(crate) fn lockstep_report(
     })
 }
 
-/// The runtime configuration a scene asks for.
+/// The runtime configuration a scene asks for. `BALLFIELD_BALL_WAIT=sleep` makes the ball threads
+/// always sleep between cycles, never yield (to measure what yielding gains).
 pub(crate) fn runtime_config(scene: &Scene) -> RuntimeConfig {
     RuntimeConfig {
         ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
         max_balls: scene.max_balls,
+        yield_when_crowded: std::env::var("BALLFIELD_BALL_WAIT").map_or(true, |v| v != "sleep"),
         ..RuntimeConfig::default()
     }
 }

@@ -7,7 +7,7 @@ use glam::DVec2;
 
 use crate::lockstep::Lockstep;
 use crate::physics::{Ball, BallId, BallKind, Effects, WallImpulses};
-use crate::runtime::{BallRecord, Runtime, RuntimeConfig, next_uniform};
+use crate::runtime::{BallRecord, Runtime, next_uniform};
 use crate::scene::Scene;
 
 /// Which engine runs the field.
@@ -56,11 +56,7 @@ impl Sim {
     pub fn start(scene: &Scene, kind: EngineKind, step: Duration) -> Result<Sim, String> {
         let inner = match kind {
             EngineKind::Threaded => {
-                let config = RuntimeConfig {
-                    ball_cycle: scene.ball_cycle_duration(),
-                    max_balls: scene.max_balls,
-                    ..RuntimeConfig::default()
-                };
+                let config = crate::headless::runtime_config(scene);
                 Inner::Threaded(Runtime::start(scene, config).map_err(|e| e.to_string())?)
             }
             EngineKind::Lockstep => {

@@ -79,7 +79,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     let mut scratch = IntegratorScratch::default();
     let mut others: Vec<BallRecord> = Vec::new();
     let mut last = Instant::now();
-    let mut waiter = Waiter::new(shared.epoch, cycle);
+    let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
     loop {
         // Wait for the next cycle, then apply what arrived meanwhile.
         waiter.wait(last);
@@ -156,11 +156,13 @@ struct Waiter {
     epoch: Instant,
     cycle: Duration,
     crowded: bool,
+    /// `RuntimeConfig::yield_when_crowded`: off, the ball always sleeps.
+    may_yield: bool,
 }
 
 impl Waiter {
-    fn new(epoch: Instant, cycle: Duration) -> Self {
-        Waiter { epoch, cycle, crowded: false }
+    fn new(epoch: Instant, cycle: Duration, may_yield: bool) -> Self {
+        Waiter { epoch, cycle, crowded: false, may_yield }
     }
 
     /// The first instant of the shared grid after `t`.
@@ -194,7 +196,7 @@ impl Waiter {
         if due > now {
             std::thread::sleep(due - now);
         }
-        if Instant::now().saturating_duration_since(due) > self.cycle / 2 {
+        if self.may_yield && Instant::now().saturating_duration_since(due) > self.cycle / 2 {
             self.crowded = true;
         }
     }

@@ -19,6 +19,10 @@ pub struct RuntimeConfig {
     pub monitor_period: Duration,
     /// Most balls at once (the original design: 1,024).
     pub max_balls: usize,
+    /// Ball threads yield their core instead of sleeping while the cores are crowded (see
+    /// `ball_thread::Waiter`). Off: they always sleep to the cycle grid (kept for comparison;
+    /// `BALLFIELD_BALL_WAIT=sleep` turns it off for headless runs).
+    pub yield_when_crowded: bool,
 }
 
 impl Default for RuntimeConfig {
@@ -28,6 +32,7 @@ impl Default for RuntimeConfig {
             max_step: 0.002,
             monitor_period: Duration::from_millis(1),
             max_balls: 1024,
+            yield_when_crowded: true,
         }
     }
 }
