@@ -82,7 +82,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
     loop {
         // Wait for the next cycle, then apply what arrived meanwhile.
-        waiter.wait(last);
+        let mut now = waiter.wait(last);
         let mut received = false;
         loop {
             match inbox.try_recv() {
@@ -100,7 +100,10 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
                 }
             }
         }
-        let now = Instant::now();
+        if received {
+            // Handling a message may take time (a stall, test hook): the cycle starts after it.
+            now = Instant::now();
+        }
         let elapsed = now - last;
         last = now;
         let g = shared.params_generation.load(Ordering::Acquire);
@@ -172,18 +175,19 @@ impl Waiter {
         self.epoch + Duration::from_nanos(((since / period + 1) * period) as u64)
     }
 
-    /// Returns when the cycle after the one that started at `last` is due.
-    fn wait(&mut self, last: Instant) {
+    /// Returns when the cycle after the one that started at `last` is due, with the time it
+    /// returned (read once: a clock read is a noticeable part of a cycle's own cost).
+    fn wait(&mut self, last: Instant) -> Instant {
         if self.crowded {
             let due = last + self.cycle / 2;
             let before = Instant::now();
             if before >= due {
-                return;
+                return before;
             }
             std::thread::yield_now();
             let back = Instant::now();
             if back >= due && back - before >= CROWDED_TURN {
-                return;
+                return back;
             }
             // The turn came back early: there is CPU to spare. Sleep from here on.
             self.crowded = false;
@@ -192,13 +196,15 @@ impl Waiter {
         // (crossbeam's) first spins and yields, which with a thousand threads burns the CPU the
         // balls need.
         let due = self.next_tick(last);
-        let now = Instant::now();
+        let mut now = Instant::now();
         if due > now {
             std::thread::sleep(due - now);
+            now = Instant::now();
         }
-        if self.may_yield && Instant::now().saturating_duration_since(due) > self.cycle / 2 {
+        if self.may_yield && now.saturating_duration_since(due) > self.cycle / 2 {
             self.crowded = true;
         }
+        now
     }
 }
 
