@@ -33,7 +33,8 @@ enum ForcePass {
 
 /// Fields of at least this many balls compute attraction with the Barnes–Hut tree, smaller ones
 /// with the direct sum. Measured with `cargo bench --bench attraction` (one force evaluation, the
-/// default opening angle): the two cost the same near this count, the tree wins above it.
+/// default opening angle, two runs): the two cost the same at 100–128 balls (38–42 µs at 128);
+/// the direct sum is 1.6× faster at 50, the tree 1.1× at 160, 2.3× at 500 and 15× at 10,000.
 pub const TREE_MIN_BALLS: usize = 128;
 
 /// How the attraction pass sums the pairs.
