@@ -169,7 +169,7 @@ const RSEQ_TUNABLE: &str = "glibc.pthread.rseq";
 /// million times a second that is about a tenth of all the CPU (perf: `__rseq_handle_notify_resume`
 /// and its user-memory accesses, 8 % of the samples at 1,024 balls; alternating runs: 10–12 %
 /// less CPU per ball update without it). Nothing in this program uses rseq. If the re-execution
-/// fails (no /proc), the program just goes on as it is.
+/// fails, the program just goes on as it is.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn without_rseq() {
     use std::os::unix::process::CommandExt;
@@ -179,9 +179,10 @@ fn without_rseq() {
     }
     let value = if current.is_empty() { format!("{RSEQ_TUNABLE}=0") } else { format!("{current}:{RSEQ_TUNABLE}=0") };
     let mut args = std::env::args_os();
-    let Some(arg0) = args.next() else { return };
+    let (Some(arg0), Ok(exe)) = (args.next(), std::env::current_exe()) else { return };
+    // The resolved path rather than /proc/self/exe, so the process keeps its name in `ps`.
     // `exec` returns only if it failed; then carry on with rseq.
-    let _ = std::process::Command::new("/proc/self/exe").arg0(arg0).args(args).env("GLIBC_TUNABLES", value).exec();
+    let _ = std::process::Command::new(exe).arg0(arg0).args(args).env("GLIBC_TUNABLES", value).exec();
 }
 
 fn main() -> ExitCode {
