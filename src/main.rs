@@ -167,7 +167,7 @@ const RSEQ_TUNABLE: &str = "glibc.pthread.rseq";
 /// Why: glibc registers an rseq area for every thread, and the kernel then updates it on every
 /// return to user space after a context switch. With a thousand ball threads switching half a
 /// million times a second that is about a tenth of all the CPU (perf: `__rseq_handle_notify_resume`
-/// and its user-memory accesses, 8 % of the samples at 1,024 balls; alternating runs: 10–12 %
+/// and its user-memory accesses, 8 % of the samples at 1,024 balls; alternating runs: 10–20 %
 /// less CPU per ball update without it). Nothing in this program uses rseq. If the re-execution
 /// fails, the program just goes on as it is.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
