@@ -63,7 +63,7 @@ pub(super) struct Splat {
     /// band `k`'s are `banded[band_start[k]..band_start[k + 1]]`.
     band_start: Vec<u32>,
     banded: Vec<Placed>,
-    /// The balls that touch the rectangle, in order.
+    /// The balls in the rectangle's pixels, in order (those missing it with no rows).
     placed: Vec<Placed>,
 }
 
@@ -103,16 +103,22 @@ impl Splat {
         self.pixels.resize(self.stride * h as usize, pack(field, order));
         // Ball centres relative to the rectangle's corner.
         let origin = [place.origin[0] - x as f32, place.origin[1] - y as f32];
-        self.placed.clear();
-        self.placed.extend(balls.iter().filter_map(|b| {
-            let centre = [origin[0] + b.x * place.scale, origin[1] - b.y * place.scale];
-            Placed::new(centre, b.radius * place.scale, b.colour, w, h)
-        }));
+        balls
+            .par_iter()
+            .with_min_len(4096)
+            .map(|b| {
+                let centre = [origin[0] + b.x * place.scale, origin[1] - b.y * place.scale];
+                Placed::new(centre, b.radius * place.scale, b.colour, w, h)
+            })
+            .collect_into_vec(&mut self.placed);
         // Sort the balls into their bands, in order: count, offsets, fill (a stable counting
         // sort). The balls are copied, not indexed: each band then reads its balls in one sweep
         // through memory (indices into all the balls, read band by band, missed the cache on
         // nearly every ball).
-        let bands_of = |p: &Placed| p.rows[0] as usize / BAND_ROWS..(p.rows[1] as usize - 1) / BAND_ROWS + 1;
+        let bands_of = |p: &Placed| match p.rows {
+            [first, end] if first < end => first as usize / BAND_ROWS..(end as usize - 1) / BAND_ROWS + 1,
+            _ => 0..0,
+        };
         let bands = (h as usize).div_ceil(BAND_ROWS);
         self.band_start.clear();
         self.band_start.resize(bands + 1, 0);
@@ -173,16 +179,19 @@ impl Splat {
 
 impl Placed {
     /// A ball of radius `radius` (pixels) centred at `centre` (pixels from the rectangle's
-    /// corner), with its packed colour; `None` if it misses the `w × h` rectangle. Pixels whose
-    /// centre is within radius + ½ of the ball's centre get some coverage.
+    /// corner), with its packed colour; if it misses the `w × h` rectangle, its rows are empty.
+    /// Pixels whose centre is within radius + ½ of the ball's centre get some coverage.
     #[inline(always)]
-    fn new(centre: [f32; 2], radius: f32, colour: u32, w: u32, h: u32) -> Option<Placed> {
+    fn new(centre: [f32; 2], radius: f32, colour: u32, w: u32, h: u32) -> Placed {
         let reach = radius + 0.5;
         let span = |c: f32, n: u32| {
             [floor(c - reach).clamp(0, n as i32) as u16, (floor(c + reach) + 1).clamp(0, n as i32) as u16]
         };
-        let (columns, rows) = (span(centre[0], w), span(centre[1], h));
-        (columns[0] < columns[1] && rows[0] < rows[1]).then_some(Placed { centre, radius, colour, columns, rows })
+        let (columns, mut rows) = (span(centre[0], w), span(centre[1], h));
+        if columns[0] >= columns[1] {
+            rows = [0, 0];
+        }
+        Placed { centre, radius, colour, columns, rows }
     }
 }
 
