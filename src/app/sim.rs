@@ -118,7 +118,11 @@ impl Sim {
                 rt.snapshot_into(&mut self.records);
                 out.extend(self.records.iter().map(|r| r.ball));
             }
-            Inner::Lockstep { engine, .. } => out.extend(engine.bodies().to_balls()),
+            Inner::Lockstep { engine, .. } => {
+                // Straight into `out` (no 5.6 MB temporary at 100,000 balls every tick).
+                let bodies = engine.bodies();
+                out.extend((0..bodies.len()).map(|i| bodies.get(i)));
+            }
         }
     }
 
