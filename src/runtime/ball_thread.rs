@@ -153,24 +153,21 @@ const CROWDED_TURN: Duration = Duration::from_micros(50);
 ///
 /// A sleeping ball turns crowded when it wakes more than half a cycle late (it waited in a run
 /// queue: the cores are saturated); a crowded ball goes back to sleeping when a yield brings its
-/// turn back almost at once (`CROWDED_TURN`: nobody else wanted the core, spinning would burn
-/// it), or before the ball is due in two cycles running (the cores have time to spare). A single
-/// early turn only costs another yield: falling back to a sleep for it would cost that ball a
-/// whole grid cycle, and such one-off early turns are what spread the slowest ball's rate from
-/// the median's.
+/// turn back before it is due, or almost at once (`CROWDED_TURN`): the cores have time to spare,
+/// and spinning would burn it. (Tolerating one early turn before falling back was tried: no
+/// clear gain at 1,024 balls, and at 256–384 balls it kept balls yielding at ~1.5 cores where
+/// sleeping takes ~1.05.)
 struct Waiter {
     epoch: Instant,
     cycle: Duration,
     crowded: bool,
     /// `RuntimeConfig::yield_when_crowded`: off, the ball always sleeps.
     may_yield: bool,
-    /// Cycles in a row whose first yield brought the turn back before the ball was due.
-    early_turns: u8,
 }
 
 impl Waiter {
     fn new(epoch: Instant, cycle: Duration, may_yield: bool) -> Self {
-        Waiter { epoch, cycle, crowded: false, may_yield, early_turns: 0 }
+        Waiter { epoch, cycle, crowded: false, may_yield }
     }
 
     /// The first instant of the shared grid after `t`.
@@ -185,35 +182,17 @@ impl Waiter {
     fn wait(&mut self, last: Instant) -> Instant {
         if self.crowded {
             let due = last + self.cycle / 2;
-            let mut now = Instant::now();
-            let mut first = true;
-            while now < due {
-                std::thread::yield_now();
-                let back = Instant::now();
-                let idle_core = back - now < CROWDED_TURN;
-                now = back;
-                if idle_core {
-                    // Nobody else wanted the core: sleeping costs nothing here, spinning would.
-                    self.crowded = false;
-                    break;
-                }
-                if first && now < due {
-                    // The turn came back before the ball was due. Once can be the scheduler's
-                    // order; two cycles in a row mean the cores have time to spare: sleep.
-                    self.early_turns += 1;
-                    if self.early_turns >= 2 {
-                        self.crowded = false;
-                        break;
-                    }
-                } else if first {
-                    self.early_turns = 0;
-                }
-                first = false;
+            let before = Instant::now();
+            if before >= due {
+                return before;
             }
-            if self.crowded {
-                return now;
+            std::thread::yield_now();
+            let back = Instant::now();
+            if back >= due && back - before >= CROWDED_TURN {
+                return back;
             }
-            self.early_turns = 0;
+            // The turn came back early, or at once: there is CPU to spare. Sleep from here on.
+            self.crowded = false;
         }
         // A plain sleep is one timer wake-up per cycle; a blocking receive with a deadline
         // (crossbeam's) first spins and yields, which with a thousand threads burns the CPU the
