@@ -18,12 +18,15 @@
 //! thread's CPU time instead (for a shared machine; the work is single-threaded).
 
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use ballfield::physics::{Attraction, AttractionMethod, BarnesHut, BodyProps, Effects, Forces};
-use cpu_time::ThreadTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
+
+#[path = "clock/mod.rs"]
+mod clock;
+use clock::Clock;
 
 const DIAMETER: f64 = 1.0;
 const MASS: f64 = 1.0;
@@ -88,44 +91,16 @@ impl Balls {
     }
 }
 
-#[derive(Clone, Copy)]
-enum Clock {
-    Wall,
-    ThreadCpu,
-}
-
-impl Clock {
-    fn from_env() -> Clock {
-        match std::env::var("BALLFIELD_BENCH_CLOCK").as_deref() {
-            Err(_) | Ok("wall") => Clock::Wall,
-            Ok("thread-cpu") => Clock::ThreadCpu,
-            Ok(other) => panic!("BALLFIELD_BENCH_CLOCK={other}: expected `wall` or `thread-cpu`"),
-        }
-    }
-}
-
 /// Times `iters` force evaluations.
 fn evaluate(forces: &mut Forces, balls: &Balls, acc: &mut [DVec2], iters: u64, clock: Clock) -> Duration {
     let props = BodyProps { mass: &balls.mass, inverse_mass: &balls.inverse_mass, diameter: &balls.diameter };
-    let mut run = || {
+    clock.time(|| {
         for _ in 0..iters {
             forces.accelerations(props, None, &balls.pos, &balls.vel, acc);
             black_box(&*acc);
             black_box(forces.take_orbit_rate_squared());
         }
-    };
-    match clock {
-        Clock::Wall => {
-            let start = Instant::now();
-            run();
-            start.elapsed()
-        }
-        Clock::ThreadCpu => {
-            let start = ThreadTime::now();
-            run();
-            start.elapsed()
-        }
-    }
+    })
 }
 
 fn forces(method: AttractionMethod, opening_angle: f64) -> Forces {
@@ -179,24 +154,12 @@ fn bench_attraction(c: &mut Criterion) {
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function(BenchmarkId::new("tree-build", n), |b| {
             b.iter_custom(|iters| {
-                let mut run = || {
+                clock.time(|| {
                     for _ in 0..iters {
                         tree.build(&balls.pos, &balls.mass, &radius, &attraction);
                         black_box(tree.node_count());
                     }
-                };
-                match clock {
-                    Clock::Wall => {
-                        let start = Instant::now();
-                        run();
-                        start.elapsed()
-                    }
-                    Clock::ThreadCpu => {
-                        let start = ThreadTime::now();
-                        run();
-                        start.elapsed()
-                    }
-                }
+                })
             })
         });
     }

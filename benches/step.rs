@@ -39,13 +39,16 @@
 use std::cell::OnceCell;
 use std::f64::consts::PI;
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use ballfield::Lockstep;
 use ballfield::physics::{Attraction, Ball, BallId, BallKind, Collisions, Drag, Effects, Field, Gravity, Integrator};
-use cpu_time::ThreadTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
+
+#[path = "clock/mod.rs"]
+mod clock;
+use clock::Clock;
 
 /// Lockstep time step, s.
 const DT: f64 = 1e-3;
@@ -168,32 +171,6 @@ fn warmed_engine(n: usize, effects: Effects, integrator: Integrator) -> Lockstep
     engine
 }
 
-/// What [`time_steps`] measures with.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Clock {
-    /// Wall-clock time (`Instant`), criterion's usual measure: what a user waits. The default.
-    Wall,
-    /// CPU time of the benchmarking thread (`CLOCK_THREAD_CPUTIME_ID`): excludes the time the
-    /// thread is descheduled while other programs hold the cores, though not their effect on the
-    /// caches and memory bandwidth (nor, in a VM, on the host's cores), so on a loaded machine it
-    /// is still an upper bound. For a single-threaded engine the two clocks agree on an idle
-    /// machine; for the `scale` benches on 2 threads it counts only the calling thread's share,
-    /// so use the wall clock there.
-    ThreadCpu,
-}
-
-impl Clock {
-    /// `BALLFIELD_BENCH_CLOCK=thread-cpu` selects [`Clock::ThreadCpu`]; unset or `wall` selects
-    /// [`Clock::Wall`].
-    fn from_env() -> Clock {
-        match std::env::var("BALLFIELD_BENCH_CLOCK").as_deref() {
-            Err(_) | Ok("wall") => Clock::Wall,
-            Ok("thread-cpu") => Clock::ThreadCpu,
-            Ok(other) => panic!("BALLFIELD_BENCH_CLOCK={other}: expected `wall` or `thread-cpu`"),
-        }
-    }
-}
-
 /// The timed loop: `n` steps (one `run`, so a multi-threaded engine enters its pool once).
 #[inline(always)]
 fn run_steps(engine: &mut Lockstep, n: u64) {
@@ -208,18 +185,7 @@ fn time_steps(warm: &Lockstep, iters: u64, clock: Clock) -> Duration {
     while left > 0 {
         let run = left.min(MAX_RUN);
         let mut engine = warm.clone();
-        total += match clock {
-            Clock::Wall => {
-                let start = Instant::now();
-                run_steps(&mut engine, run);
-                start.elapsed()
-            }
-            Clock::ThreadCpu => {
-                let start = ThreadTime::now();
-                run_steps(&mut engine, run);
-                start.elapsed()
-            }
-        };
+        total += clock.time(|| run_steps(&mut engine, run));
         black_box(&engine);
         left -= run;
     }
