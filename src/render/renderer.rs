@@ -18,7 +18,7 @@ pub enum BallPath {
     /// them. Otherwise, and on a real GPU, all are triangles.
     Auto,
     /// Every ball splatted: the field's pixels computed on the CPU, four pixels at a time, and
-    /// written into the target with one texture write; no primitive per ball. A CPU rasteriser
+    /// copied into the target (see `src/render/splat.rs`); no primitive per ball. A CPU rasteriser
     /// pays about 1 µs for each primitive however small, the splat a few nanoseconds per
     /// pixel, so it wins by far for 100,000 balls 1.6 px across (see benches/render.rs) and
     /// loses for very large ones. Needs a target with `COPY_DST` usage in `Rgba8Unorm` or
@@ -362,12 +362,16 @@ impl Renderer {
         self.segment_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.segment_scratch));
 
         // Which balls are splatted, which drawn as primitives.
-        let split = self.sort_balls(snapshot, &layout, view.texture());
+        let mut split = self.sort_balls(snapshot, &layout, view.texture());
         if let Split::Splatted { rect, order, all } = split {
             let place =
                 Placement { scale: globals.scale, origin: [globals.origin[0], size.height as f32 - globals.origin[1]] };
-            self.splat.draw(if all { &snapshot.balls } else { &self.small }, place, rect, order);
-            self.splat.upload(&self.queue, view.texture());
+            let small = if all { &snapshot.balls } else { &self.small };
+            if self.splat.draw(&self.device, small, place, rect, order) {
+                self.splat.upload(encoder, view.texture());
+            } else {
+                split = Split::AllPrimitives;
+            }
         }
         let large: &[BallSprite] = match split {
             Split::AllPrimitives => &snapshot.balls,

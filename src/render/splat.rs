@@ -1,16 +1,16 @@
 //! Small balls drawn without a primitive each, on a CPU adapter: the field's pixels are computed
 //! here (the field's colour, then every small ball over it, in order, with the same coverage and
-//! colour as `fs_main` in `shaders/balls.wgsl`) and written into the target with one texture
-//! write; the render pass then draws the walls, the large balls and the overlays over them.
+//! colour as `fs_main` in `shaders/balls.wgsl`) and copied into the target through a staging
+//! buffer; the render pass then draws the walls, the large balls and the overlays over them.
 //!
 //! Why: Mesa's CPU rasterisers (lavapipe, llvmpipe) spend about a microsecond on each primitive
 //! — setup, binning, a fragment-shader call per 4×4 block touched — however few pixels it
 //! covers. 100,000 balls 1.6 px across took ~90 ms as triangles and ~60 ms as one-pixel points,
 //! while their vertex work was ~3 ms. A compute shader adding every ball's pixels into a buffer
 //! with atomics took ~30 ms: lavapipe runs a storage-buffer atomic lane by lane. Here, four
-//! pixels of a row at a time in SIMD, they take a few milliseconds, and the texture write
-//! (~4 MB at 1280×720) well under one. On a real GPU none of this pays: there
-//! [`super::BallPath::Auto`] draws triangles.
+//! pixels of a row at a time in SIMD, band by band on rayon's threads, they take a few
+//! milliseconds, and the copy (~4 MB at 1280×720) well under one. On a real GPU none of this
+//! pays: there [`super::BallPath::Auto`] draws triangles.
 
 use rayon::prelude::*;
 
@@ -65,6 +65,9 @@ pub(super) struct Splat {
     banded: Vec<Placed>,
     /// The balls in the rectangle's pixels, in order (those missing it with no rows).
     placed: Vec<Placed>,
+    /// Where the pixels are copied for the GPU (see `mapped_staging`), and whether it is mapped.
+    staging: Option<wgpu::Buffer>,
+    staging_mapped: bool,
 }
 
 /// A ball in the rectangle's pixels: 24 bytes, as the balls are read band by band.
@@ -92,12 +95,78 @@ const LANES: usize = 4;
 const BAND_ROWS: usize = 32;
 
 impl Splat {
+    /// Draws the pixels of `rect` (inside the target): the field's colour, `balls` over it in
+    /// their order, clipped to it; and puts them in the staging buffer, for [`Self::upload`].
+    /// `false` if the staging buffer cannot be mapped (a lost device): then nothing is drawn.
+    pub(super) fn draw(
+        &mut self,
+        device: &wgpu::Device,
+        balls: &[BallSprite],
+        place: Placement,
+        rect: PixelRect,
+        order: PixelOrder,
+    ) -> bool {
+        let [_, _, w, h] = rect;
+        let bytes = 4 * Self::stride(w) as u64 * h as u64;
+        let Some(staging) = self.mapped_staging(device, bytes) else { return false };
+        self.paint(balls, place, rect, order);
+        let Ok(mut view) = staging.get_mapped_range_mut(..bytes) else {
+            self.staging = None;
+            return false;
+        };
+        view.copy_from_slice(bytemuck::cast_slice(&self.pixels));
+        drop(view);
+        staging.unmap();
+        self.staging_mapped = false;
+        true
+    }
+
+    /// Pixels per row for a rectangle `w` pixels wide: room for a last group of four, and a
+    /// multiple of 256 bytes, as a copy from a buffer into a texture needs.
+    fn stride(w: u32) -> usize {
+        (w as usize + LANES).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize / 4)
+    }
+
+    /// The staging buffer, at least `bytes` long and mapped for writing; `None` if it cannot be
+    /// mapped.
+    ///
+    /// Why a buffer of our own, kept from frame to frame, rather than `Queue::write_texture`:
+    /// that makes a new staging buffer at every call, and on llvmpipe (GL) each was fresh memory
+    /// from the system — 4 MB of page faults a frame, about 2 ms. Mapping it again waits for the
+    /// GPU to have copied the last frame out of it, which the caller has already waited for.
+    fn mapped_staging(&mut self, device: &wgpu::Device, bytes: u64) -> Option<wgpu::Buffer> {
+        if self.staging.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.staging = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("splat pixels"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: true,
+            }));
+            self.staging_mapped = true;
+        }
+        let staging = self.staging.clone()?;
+        if !self.staging_mapped {
+            let (tx, rx) = std::sync::mpsc::channel();
+            staging.map_async(wgpu::MapMode::Write, .., move |r| {
+                let _ = tx.send(r);
+            });
+            let done = device.poll(wgpu::PollType::wait_indefinitely()).is_ok();
+            if !(done && matches!(rx.try_recv(), Ok(Ok(())))) {
+                log::warn!("the splat's staging buffer cannot be mapped: balls drawn as triangles");
+                self.staging = None;
+                return None;
+            }
+            self.staging_mapped = true;
+        }
+        Some(staging)
+    }
+
     /// Fills `rect` (inside the target) with the field's colour and draws `balls` over it, in
-    /// their order, clipped to it.
-    pub(super) fn draw(&mut self, balls: &[BallSprite], place: Placement, rect: PixelRect, order: PixelOrder) {
+    /// their order, clipped to it, into `self.pixels`.
+    fn paint(&mut self, balls: &[BallSprite], place: Placement, rect: PixelRect, order: PixelOrder) {
         let [x, y, w, h] = rect;
         self.rect = rect;
-        self.stride = w as usize + LANES;
+        self.stride = Self::stride(w);
         let field = palette::FIELD_RGB.map(|c| (c * 255.0).round() as u32);
         self.pixels.clear();
         self.pixels.resize(self.stride * h as usize, pack(field, order));
@@ -157,20 +226,26 @@ impl Splat {
     /// Writes the pixels of the last [`Self::draw`] into `texture` (which needs `COPY_DST`). A
     /// queue write: it lands before the commands of the next submission, as the renderer's
     /// buffer writes do.
-    pub(super) fn upload(&self, queue: &wgpu::Queue, texture: &wgpu::Texture) {
+    /// Records, on `encoder`, the copy of the last [`Self::draw`] into `texture` (which needs
+    /// `COPY_DST`), before whatever is recorded next. One draw per submission: the next draw
+    /// waits for this copy to be done.
+    pub(super) fn upload(&self, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture) {
         let [x, y, w, h] = self.rect;
-        queue.write_texture(
+        let Some(staging) = &self.staging else { return };
+        encoder.copy_buffer_to_texture(
+            wgpu::TexelCopyBufferInfo {
+                buffer: staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * self.stride as u32),
+                    rows_per_image: None,
+                },
+            },
             wgpu::TexelCopyTextureInfo {
                 texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d { x, y, z: 0 },
                 aspect: wgpu::TextureAspect::All,
-            },
-            bytemuck::cast_slice(&self.pixels),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(4 * self.stride as u32),
-                rows_per_image: None,
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
@@ -313,7 +388,7 @@ mod tests {
         let place = Placement { scale: 10.0, origin: [0.0, 20.0] };
         // A 5 px ball centred on pixel (10, 10) of a 20 × 20 rectangle.
         let ball = BallSprite { x: 1.05, y: 0.95, radius: 0.5, colour: palette::BALLS[0] & 0x00FF_FFFF };
-        splat.draw(&[ball], place, [0, 0, 20, 20], PixelOrder::Rgba);
+        splat.paint(&[ball], place, [0, 0, 20, 20], PixelOrder::Rgba);
         let at = |x: usize, y: usize| splat.pixels[y * splat.stride + x];
         let field = pack(palette::FIELD_RGB.map(|c| (c * 255.0).round() as u32), PixelOrder::Rgba);
         assert_ne!(at(10, 10), field);
@@ -324,7 +399,7 @@ mod tests {
         assert_eq!(at(0, 0), field);
         // BGRA swaps red and blue.
         let rgba = at(10, 10);
-        splat.draw(&[ball], place, [0, 0, 20, 20], PixelOrder::Bgra);
+        splat.paint(&[ball], place, [0, 0, 20, 20], PixelOrder::Bgra);
         let bgra = splat.pixels[10 * splat.stride + 10];
         assert_eq!(bgra, (rgba & 0xFF00_FF00) | ((rgba & 0xFF) << 16) | ((rgba >> 16) & 0xFF));
     }
@@ -338,6 +413,6 @@ mod tests {
             BallSprite { x: 2.1, y: 2.1, radius: 0.3, colour: palette::BALLS[2] },
             BallSprite { x: 1e9, y: -1e9, radius: 0.3, colour: palette::BALLS[3] },
         ];
-        splat.draw(&balls, place, [0, 0, 20, 20], PixelOrder::Rgba);
+        splat.paint(&balls, place, [0, 0, 20, 20], PixelOrder::Rgba);
     }
 }
