@@ -18,8 +18,8 @@ use std::path::{Path, PathBuf};
 use ballfield::Lockstep;
 use ballfield::physics::{BallKind, Field};
 use ballfield::render::{
-    BallPath, BallSprite, BallStyle, FrameBalls, FrameSnapshot, OffscreenRenderer, RenderError, SPLAT_MAX_RADIUS_PX,
-    SPLAT_MIN_BALLS, ball_colour, palette, with_style,
+    BallPath, BallSprite, BallStyle, FrameBalls, FrameSnapshot, Offscreen, OffscreenRenderer, RenderError,
+    SPLAT_MAX_RADIUS_PX, SPLAT_MIN_BALLS, ball_colour, palette, with_style,
 };
 use ballfield::scenes;
 
@@ -232,4 +232,11 @@ fn many_small_balls() {
     // The splat is repeatable too.
     out.renderer.set_ball_path(BallPath::Auto);
     assert_eq!(out.render_image(&snapshot).unwrap(), auto);
+
+    // Onto a target that cannot be copied into (as a GL window's surface): the splatted pixels
+    // are drawn as one textured rectangle instead, the very same pixels.
+    out.target = Offscreen::draw_only(&out.gpu.device, 640, 360).unwrap();
+    let drawn = out.render_image(&snapshot).unwrap();
+    assert_eq!(out.renderer.last_frame(), expected);
+    assert!(drawn == auto, "drawn onto the target, the frame differs from the one copied into it");
 }

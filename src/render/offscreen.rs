@@ -21,6 +21,22 @@ pub struct Offscreen {
 
 impl Offscreen {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<Offscreen, RenderError> {
+        // COPY_DST: small balls are splatted into it (see `BallPath::Splat`).
+        Self::with_usage(device, width, height, wgpu::TextureUsages::COPY_DST)
+    }
+
+    /// A target that can only be drawn into and read back, as a GL window's surface can: small
+    /// balls are splatted onto it by a draw instead of a copy (for tests).
+    pub fn draw_only(device: &wgpu::Device, width: u32, height: u32) -> Result<Offscreen, RenderError> {
+        Self::with_usage(device, width, height, wgpu::TextureUsages::empty())
+    }
+
+    fn with_usage(
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        usage: wgpu::TextureUsages,
+    ) -> Result<Offscreen, RenderError> {
         let max = device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::Size { width, height, max });

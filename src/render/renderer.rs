@@ -6,7 +6,7 @@ use wgpu::util::DeviceExt;
 
 use super::layout::Layout;
 use super::snapshot::{BallSprite, FrameSnapshot, Segment, palette};
-use super::splat::{MAX_SIDE, PixelOrder, PixelRect, Placement, Splat};
+use super::splat::{MAX_SIDE, PixelOrder, PixelRect, Placement, Splat, SplatBlit};
 
 /// How the balls are drawn. Every path draws the same discs (see `shaders/balls.wgsl` and
 /// `src/render/splat.rs`); they differ in what they cost.
@@ -21,8 +21,10 @@ pub enum BallPath {
     /// copied into the target (see `src/render/splat.rs`); no primitive per ball. A CPU rasteriser
     /// pays about 1 µs for each primitive however small, the splat a few nanoseconds per
     /// pixel, so it wins by far for 100,000 balls 1.6 px across (see benches/render.rs) and
-    /// loses for very large ones. Needs a target with `COPY_DST` usage in `Rgba8Unorm` or
-    /// `Bgra8Unorm`; other targets get [`BallPath::Triangles`].
+    /// loses for very large ones. The pixels are copied into a target with `COPY_DST` usage in
+    /// `Rgba8Unorm` or `Bgra8Unorm`, and drawn onto any other as one textured rectangle (a GL
+    /// surface can only be drawn into; an sRGB target then shows the balls' edges blended in
+    /// sRGB rather than in linear light).
     Splat,
     /// One instance per ball, a 4-vertex triangle strip each.
     Instanced,
@@ -65,8 +67,9 @@ enum Split {
     AllPrimitives,
     /// The small ones splatted into `rect` (the field, its pixels all written by the splat), the
     /// rest as primitives. With `all`, every ball is splatted, straight from the snapshot;
-    /// otherwise they were sorted into `Renderer::small` and `Renderer::large`.
-    Splatted { rect: PixelRect, order: PixelOrder, all: bool },
+    /// otherwise they were sorted into `Renderer::small` and `Renderer::large`. With `copy`, the
+    /// pixels are copied into the target; otherwise drawn onto it (a [`SplatBlit`]).
+    Splatted { rect: PixelRect, order: PixelOrder, all: bool, copy: bool },
 }
 
 /// The uniform both shaders read (see `struct Globals` in them).
@@ -149,6 +152,7 @@ pub struct Renderer {
     /// The adapter is a CPU (Mesa's lavapipe or llvmpipe): [`BallPath::Auto`] splats.
     cpu_adapter: bool,
     splat: Splat,
+    splat_blit: SplatBlit,
     // Scratch, kept between frames.
     expanded: Vec<BallSprite>,
     small: Vec<BallSprite>,
@@ -290,6 +294,7 @@ impl Renderer {
             segment_buffer: GrowBuffer::new(device, "segments", vertex, 16 * 1024),
             cpu_adapter: device.adapter_info().device_type == wgpu::DeviceType::Cpu,
             splat: Splat::default(),
+            splat_blit: SplatBlit::new(device, format),
             expanded: Vec::new(),
             small: Vec::new(),
             large: Vec::new(),
@@ -363,14 +368,17 @@ impl Renderer {
 
         // Which balls are splatted, which drawn as primitives.
         let mut split = self.sort_balls(snapshot, &layout, view.texture());
-        if let Split::Splatted { rect, order, all } = split {
+        if let Split::Splatted { rect, order, all, copy } = split {
             let place =
                 Placement { scale: globals.scale, origin: [globals.origin[0], size.height as f32 - globals.origin[1]] };
             let small = if all { &snapshot.balls } else { &self.small };
-            if self.splat.draw(&self.device, small, place, rect, order) {
-                self.splat.upload(encoder, view.texture());
-            } else {
+            if !self.splat.draw(&self.device, small, place, rect, order) {
                 split = Split::AllPrimitives;
+            } else if copy {
+                self.splat.upload(encoder, view.texture(), [rect[0], rect[1]]);
+            } else {
+                let target = [size.width, size.height];
+                self.splat_blit.prepare(&self.device, &self.queue, encoder, &self.splat, target);
             }
         }
         let large: &[BallSprite] = match split {
@@ -413,11 +421,11 @@ impl Renderer {
         } else {
             wgpu::Color { r, g, b, a: 1.0 }
         };
-        // After a splat the field's pixels are in the target already (written by the queue before
-        // this pass runs), and the bands below cover every pixel outside the field.
+        // After a splat copied into the target the field's pixels are there already (the copy is
+        // recorded before this pass), and the bands below cover every pixel outside the field.
         let load = match split {
-            Split::AllPrimitives => wgpu::LoadOp::Clear(clear),
-            Split::Splatted { .. } => wgpu::LoadOp::Load,
+            Split::Splatted { copy: true, .. } => wgpu::LoadOp::Load,
+            _ => wgpu::LoadOp::Clear(clear),
         };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("ballfield"),
@@ -432,6 +440,8 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        // The splatted pixels, when they could not be copied in; the blit binds its own group 0.
+        self.splat_blit.draw(&mut pass);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(&self.background);
         pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
@@ -474,10 +484,9 @@ impl Renderer {
             BallPath::Splat => f32::INFINITY,
             _ => return Split::AllPrimitives,
         };
-        let Some(order) = PixelOrder::of(target.format()) else { return Split::AllPrimitives };
-        if !target.usage().contains(wgpu::TextureUsages::COPY_DST) {
-            return Split::AllPrimitives;
-        }
+        // Copied into the target when its format and usage allow, else drawn onto it in RGBA.
+        let copy = PixelOrder::of(target.format()).filter(|_| target.usage().contains(wgpu::TextureUsages::COPY_DST));
+        let order = copy.unwrap_or(PixelOrder::Rgba);
         let small = snapshot.balls.iter().filter(|b| b.radius <= limit).count();
         if small == 0 || (self.path == BallPath::Auto && small < SPLAT_MIN_BALLS) {
             return Split::AllPrimitives;
@@ -498,7 +507,12 @@ impl Renderer {
         if x1 <= x0 || y1 <= y0 || x1 - x0 > MAX_SIDE as f64 || y1 - y0 > MAX_SIDE as f64 {
             return Split::AllPrimitives;
         }
-        Split::Splatted { rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32], order, all }
+        Split::Splatted {
+            rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32],
+            order,
+            all,
+            copy: copy.is_some(),
+        }
     }
 }
 

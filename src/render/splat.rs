@@ -40,8 +40,8 @@ pub(super) enum PixelOrder {
 }
 
 impl PixelOrder {
-    /// `Some` for the 8-bit formats the splat writes: RGBA or BGRA, not sRGB-encoded (the shaders
-    /// blend in the stored encoding there too; an sRGB target blends in linear light instead).
+    /// `Some` for the formats the splat's pixels can be copied into as they are: 8-bit RGBA or
+    /// BGRA, not sRGB-encoded (others get them through a [`SplatBlit`]).
     pub(super) fn of(format: wgpu::TextureFormat) -> Option<PixelOrder> {
         match format {
             wgpu::TextureFormat::Rgba8Unorm => Some(PixelOrder::Rgba),
@@ -223,14 +223,11 @@ impl Splat {
         self.pixels.par_chunks_mut(BAND_ROWS * stride).enumerate().with_min_len(4).for_each(draw_band);
     }
 
-    /// Writes the pixels of the last [`Self::draw`] into `texture` (which needs `COPY_DST`). A
-    /// queue write: it lands before the commands of the next submission, as the renderer's
-    /// buffer writes do.
     /// Records, on `encoder`, the copy of the last [`Self::draw`] into `texture` (which needs
-    /// `COPY_DST`), before whatever is recorded next. One draw per submission: the next draw
-    /// waits for this copy to be done.
-    pub(super) fn upload(&self, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture) {
-        let [x, y, w, h] = self.rect;
+    /// `COPY_DST`) at `origin`, before whatever is recorded next. One draw per submission: the
+    /// next draw waits for this copy to be done.
+    pub(super) fn upload(&self, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture, origin: [u32; 2]) {
+        let [_, _, w, h] = self.rect;
         let Some(staging) = &self.staging else { return };
         encoder.copy_buffer_to_texture(
             wgpu::TexelCopyBufferInfo {
@@ -244,11 +241,167 @@ impl Splat {
             wgpu::TexelCopyTextureInfo {
                 texture,
                 mip_level: 0,
-                origin: wgpu::Origin3d { x, y, z: 0 },
+                origin: wgpu::Origin3d { x: origin[0], y: origin[1], z: 0 },
                 aspect: wgpu::TextureAspect::All,
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
+    }
+
+    /// The rectangle of the last [`Self::draw`].
+    pub(super) fn rect(&self) -> PixelRect {
+        self.rect
+    }
+}
+
+/// Draws the splatted pixels onto a target they cannot be copied into (`shaders/splat.wgsl`):
+/// copied into a texture of their own, then drawn as one opaque rectangle. On llvmpipe, a GL
+/// surface is such a target: it can only be rendered to.
+pub(super) struct SplatBlit {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    uniform: wgpu::Buffer,
+    format: wgpu::TextureFormat,
+    /// The texture the pixels are copied into, and its bind group; made again at another size.
+    texture: Option<(wgpu::Texture, wgpu::BindGroup)>,
+    /// The rectangle is to be drawn in this frame.
+    pending: bool,
+}
+
+/// `struct Blit` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct BlitUniform {
+    rect: [f32; 4],
+    target_size: [f32; 2],
+    _pad: [f32; 2],
+}
+
+impl SplatBlit {
+    /// The pipeline for targets of `format`.
+    pub(super) fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> SplatBlit {
+        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("splat blit"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
+                entry(
+                    1,
+                    wgpu::ShaderStages::FRAGMENT,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                ),
+            ],
+        });
+        let shader = device.create_shader_module(wgpu::include_wgsl!("../../shaders/splat.wgsl"));
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("splat blit"),
+            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("splat blit"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            })),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                // Opaque: the pixels are the field's, balls and all.
+                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splat blit"),
+            size: std::mem::size_of::<BlitUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        SplatBlit { pipeline, layout, uniform, format, texture: None, pending: false }
+    }
+
+    /// Records the copy of `splat`'s last pixels (drawn in RGBA order) into the blit's texture,
+    /// for [`Self::draw`] on a `target_size` target.
+    pub(super) fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        splat: &Splat,
+        target_size: [u32; 2],
+    ) {
+        let [x, y, w, h] = splat.rect();
+        if self.texture.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != (w, h)) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("splat pixels"),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                // Loading from an sRGB texture decodes what writing to an sRGB target encodes.
+                format: if self.format.is_srgb() {
+                    wgpu::TextureFormat::Rgba8UnormSrgb
+                } else {
+                    wgpu::TextureFormat::Rgba8Unorm
+                },
+                usage: wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("splat blit"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
+                ],
+            });
+            self.texture = Some((texture, group));
+        }
+        let (texture, _) = self.texture.as_ref().expect("made above");
+        splat.upload(encoder, texture, [0, 0]);
+        let uniform = BlitUniform {
+            rect: [x as f32, y as f32, w as f32, h as f32],
+            target_size: target_size.map(|s| s as f32),
+            _pad: [0.0; 2],
+        };
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+        self.pending = true;
+    }
+
+    /// Draws the rectangle prepared for this frame, if any. It binds its own group 0.
+    pub(super) fn draw(&mut self, pass: &mut wgpu::RenderPass<'_>) {
+        if !std::mem::take(&mut self.pending) {
+            return;
+        }
+        let (_, group) = self.texture.as_ref().expect("prepare made it");
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.draw(0..4, 0..1);
     }
 }
 
