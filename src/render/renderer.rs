@@ -6,7 +6,7 @@ use wgpu::util::DeviceExt;
 
 use super::layout::Layout;
 use super::snapshot::{BallSprite, FrameSnapshot, Segment, palette};
-use super::splat::{MAX_SIDE, PixelOrder, PixelRect, Placement, Splat, SplatBlit};
+use super::splat::{PixelOrder, PixelRect, Placement, Splat, SplatBlit};
 
 /// How the balls are drawn. Every path draws the same discs (see `shaders/balls.wgsl` and
 /// `src/render/splat.rs`); they differ in what they cost.
@@ -504,15 +504,11 @@ impl Renderer {
         let b = corner(DVec2::new(snapshot.field.width, 0.0));
         let (x0, y0) = (a.x.floor().clamp(0.0, width), a.y.floor().clamp(0.0, height));
         let (x1, y1) = (b.x.ceil().clamp(0.0, width), b.y.ceil().clamp(0.0, height));
-        if x1 <= x0 || y1 <= y0 || x1 - x0 > MAX_SIDE as f64 || y1 - y0 > MAX_SIDE as f64 {
+        let rect = [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32];
+        if x1 <= x0 || y1 <= y0 || !Splat::fits(&self.device, rect) {
             return Split::AllPrimitives;
         }
-        Split::Splatted {
-            rect: [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32],
-            order,
-            all,
-            copy: copy.is_some(),
-        }
+        Split::Splatted { rect, order, all, copy: copy.is_some() }
     }
 }
 

@@ -20,7 +20,7 @@ use super::snapshot::{BallSprite, BallStyle, palette};
 pub(super) type PixelRect = [u32; 4];
 
 /// The largest width and height of a splat's rectangle (balls keep their pixel spans in u16).
-pub(super) const MAX_SIDE: u32 = u16::MAX as u32;
+const MAX_SIDE: u32 = u16::MAX as u32;
 
 /// Where the balls land, in the target's pixels (top-left origin, y down), as the shaders
 /// compute it (in f32).
@@ -119,6 +119,12 @@ impl Splat {
         staging.unmap();
         self.staging_mapped = false;
         true
+    }
+
+    /// Whether the staging buffer for `rect` can be made on `device`.
+    pub(super) fn fits(device: &wgpu::Device, rect: PixelRect) -> bool {
+        let [_, _, w, h] = rect;
+        w <= MAX_SIDE && h <= MAX_SIDE && 4 * Self::stride(w) as u64 * h as u64 <= device.limits().max_buffer_size
     }
 
     /// Pixels per row for a rectangle `w` pixels wide: room for a last group of four, and a
