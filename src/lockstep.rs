@@ -32,9 +32,9 @@ use serde::Serialize;
 use rayon::prelude::*;
 
 use crate::physics::{
-    Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Effects, Field, Forces, Integrator,
+    Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Drag, Effects, Field, Forces, Integrator,
     IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, contact_ball_wall, drag_rate,
-    integrate, measure,
+    drag_rate_bound, integrate, measure,
 };
 use crate::scene::Scene;
 use contact_solver::ContactSolver;
@@ -138,6 +138,11 @@ pub struct Lockstep {
     built_positions: Vec<DVec2>,
     grid_stale: bool,
     adaptive_substeps: bool,
+    /// The speeds the next sub-step's split is judged by, as the last finishing pass left them;
+    /// `None` when they must be measured afresh (first step, balls or effects changed).
+    split_speeds: Option<SplitSpeeds>,
+    /// The chunks' tallies of the last chunked pass (kept to reuse the memory).
+    tallies: Vec<ChunkTally>,
     threads: usize,
     /// Built on first need (a field of at least [`PARALLEL_MIN_BALLS`] with `threads` > 1), shared
     /// by clones.
@@ -184,6 +189,8 @@ impl Lockstep {
             grid_stale: true,
             contacts: ContactSolver::default(),
             adaptive_substeps: true,
+            split_speeds: None,
+            tallies: Vec::new(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             pool: None,
         }
@@ -239,6 +246,7 @@ impl Lockstep {
         self.effects = effects;
         self.forces = Forces::new(&effects);
         self.grid_stale = true;
+        self.split_speeds = None;
     }
 
     /// Turns the automatic step splitting (fast balls, stiff drag, fast orbits; see
@@ -313,6 +321,7 @@ impl Lockstep {
         self.next_id += 1;
         self.bodies.push(ball);
         self.grid_stale = true;
+        self.split_speeds = None;
         self.forces.forget_orbit_rate();
         Ok(ball.id)
     }
@@ -320,6 +329,7 @@ impl Lockstep {
     pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.grid_stale = true;
+        self.split_speeds = None;
         self.forces.forget_orbit_rate();
         Ok(self.bodies.remove(index))
     }
@@ -328,6 +338,7 @@ impl Lockstep {
     pub fn remove_last(&mut self) -> Option<Ball> {
         let index = (0..self.bodies.len()).rev().find(|&i| self.bodies.kind[i] != BallKind::Key)?;
         self.grid_stale = true;
+        self.split_speeds = None;
         self.forces.forget_orbit_rate();
         Some(self.bodies.remove(index))
     }
@@ -382,22 +393,35 @@ impl Lockstep {
     /// not stiff for the step (`drag_rate·h ≤ MAX_DRAG_STEP`: a light, large ball at high speed
     /// would otherwise have its velocity overshoot through zero and blow up); with attraction on,
     /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`).
+    ///
+    /// The speeds are those the last sub-step's finishing pass measured as it went (see
+    /// [`Lockstep::finish_phase`]): the same numbers a pass over the balls now would give, as
+    /// nothing has moved since. Only when there are none (the first step, balls added or removed,
+    /// effects changed) are they measured here.
     fn substeps_needed(&mut self, span: f64) -> u32 {
         let b = &self.bodies;
+        let speeds = match self.split_speeds {
+            Some(speeds) => speeds,
+            None => {
+                let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
+                SplitSpeeds::measure(collisions, drag, &b.velocity, &b.radius, &b.diameter, &b.mass)
+            }
+        };
         let mut need = 1.0f64;
         if self.effects.collisions.is_some() {
-            let mut worst = 0.0f64; // largest (|v| / r)²
-            for i in 0..b.len() {
-                worst = worst.max(b.velocity[i].length_squared() / (b.radius[i] * b.radius[i]));
-            }
-            need = need.max(worst.sqrt() * span / MAX_TRAVEL);
+            need = need.max(speeds.travel2.sqrt() * span / MAX_TRAVEL);
         }
         if let Some(drag) = &self.effects.drag {
-            let mut worst = 0.0f64;
-            for i in 0..b.len() {
-                worst = worst.max(drag_rate(b.velocity[i], b.diameter[i], b.mass[i], drag));
+            // The rate now, and the rate at the terminal speed gravity drives each ball to (see
+            // `drag_rate_bound`; the largest is that of the ball with the largest `c`), and the
+            // key ball's under gravity and the pull.
+            let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+            let mut rate = speeds.drag_rate.max((gravity.length() * speeds.drag_c).sqrt());
+            if let Some(k) = b.key_index().filter(|_| self.pull != DVec2::ZERO) {
+                let a = gravity + self.pull * b.inverse_mass[k];
+                rate = rate.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
             }
-            need = need.max(worst * span / MAX_DRAG_STEP);
+            need = need.max(rate * span / MAX_DRAG_STEP);
         }
         if self.effects.attraction.is_some() {
             // The attraction pass measures the fastest orbit rate while it sums the forces
@@ -408,71 +432,92 @@ impl Lockstep {
             // sub-step, and the next sub-step is judged by the new rate. Only when there were none
             // (the first step, or balls added or removed since) is it measured now, by one
             // evaluation.
-            let worst = match self.forces.take_orbit_rate_squared() {
-                Some(w) => w,
-                None => {
+            // With quadratic drag on, the same evaluations also tell how hard attraction drives each
+            // ball into its drag: the drag rate at the terminal speed it would reach (see
+            // `Forces::take_terminal_drag_rate`), so a light ball pulled hard is not given a step
+            // in which its drag turns stiff.
+            let (worst, terminal) = match (self.forces.take_orbit_rate_squared(), self.forces.take_terminal_drag_rate())
+            {
+                (Some(w), terminal) => (w, terminal.unwrap_or(0.0)),
+                (None, _) => {
                     let props = BodyProps { mass: &b.mass, inverse_mass: &b.inverse_mass, diameter: &b.diameter };
-                    self.forces.orbit_rate_squared(props, &b.position)
+                    self.forces.attraction_rates(props, &b.position)
                 }
             };
             need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
+            need = need.max(terminal * span / MAX_DRAG_STEP);
         }
         if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) }
     }
 
+    /// One sub-step: three passes over the balls, however many effects are on —
+    ///
+    /// 1. **integrate** (chunked, see [`Lockstep::integrate_phase`]): the forces and the
+    ///    integrator; with the support pass, the walls too; and how far the balls have moved
+    ///    since the pairs were last found;
+    /// 2. **broad phase** and **contacts**, when collisions are on;
+    /// 3. **finish** (chunked, see [`Lockstep::finish_phase`], timed as `walls`): speeds capped at
+    ///    [`MAX_SPEED`], the walls unless they went first, and the speeds the next sub-step's
+    ///    split is judged by.
+    ///
+    /// Each ball sees the very same arithmetic, in the same order, as in separate passes; fusing
+    /// them only saves reading the balls again and, on several threads, the hand-overs between
+    /// passes.
     fn substep(&mut self, h: f64) {
         let pool = self.parallel();
+        let pool = pool.as_deref();
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        // The support pass stands the pile on the floor, so the walls go first: a crossing in free
+        // flight is replayed exactly along its path (see `contact_ball_wall`), and the support
+        // pass then puts back what the contacts pushed into a wall. Elastic (or weightless)
+        // fields have the walls after the contacts, so a ball a contact pushed past a wall is
+        // bounced in the same step (the elastic pile keeps its energy to 1e-13 this way; with the
+        // walls first, to 1e-6).
+        let support = self.support_direction().is_some();
         let t0 = Instant::now();
-        self.integrate_phase(h, pool.as_deref());
+        let moved2 = self.integrate_phase(h, pool, support);
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
-        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        let support = self.support_direction().is_some();
-        if support {
-            // The support pass stands the pile on the floor, so the walls go first: a crossing
-            // in free flight is replayed exactly along its path (see `contact_ball_wall`), and
-            // the support pass then puts back what the contacts pushed into a wall.
-            self.walls_phase(pool.as_deref());
-        }
-        let t2 = Instant::now();
-        self.counters.walls += t2 - t1;
         if let Some(collisions) = self.effects.collisions {
-            self.broad_phase_phase(pool.as_deref());
-            let t3 = Instant::now();
-            self.counters.broad_phase += t3 - t2;
+            self.broad_phase_phase(moved2, pool);
+            let t2 = Instant::now();
+            self.counters.broad_phase += t2 - t1;
             let (bodies, grid, contacts) = (&mut self.bodies, &self.broad_phase, &mut self.contacts);
-            let impulses = in_pool(pool.as_deref(), || {
+            let impulses = in_pool(pool, || {
                 contacts.solve(bodies, grid, collisions.restitution, h, CONTACT_ITERATIONS, pool.is_some())
             });
             self.counters.impulses += impulses;
             if support {
                 self.counters.supported += contacts.support_pass(bodies, -gravity.normalize(), &self.field);
             }
-            self.counters.contacts += t3.elapsed();
+            self.counters.contacts += t2.elapsed();
         }
-        self.limit_speeds();
-        if !support {
-            // Elastic (or weightless) fields: walls after the contacts, so a ball a contact
-            // pushed past a wall is bounced in the same step (the elastic pile keeps its energy
-            // to 1e-13 this way; with the walls first, to 1e-6).
-            let t4 = Instant::now();
-            self.walls_phase(pool.as_deref());
-            self.counters.walls += t4.elapsed();
-        }
+        let t3 = Instant::now();
+        self.finish_phase(pool, !support);
+        self.counters.walls += t3.elapsed();
     }
 
-    /// The force passes inside the integrator. Without attraction every ball's update reads only
-    /// that ball, so the balls are integrated in chunks of [`CHUNK`] (on the pool's threads when
-    /// there is one): the same arithmetic on every ball as one whole-field call.
-    fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>) {
+    /// The force passes inside the integrator; then, ball by ball in the same chunks, the walls
+    /// when they go first (`walls`) and how far each ball has moved since the pairs were last
+    /// found. Returns the largest squared such distance (+∞ when the pairs must be found afresh
+    /// anyway, 0 without collisions).
+    ///
+    /// Without attraction every ball's update reads only that ball, so the balls are integrated
+    /// in chunks of [`CHUNK`] (on the pool's threads when there is one): the same arithmetic on
+    /// every ball as one whole-field call. Attraction couples them: one whole-field integration,
+    /// then the per-ball work in chunks.
+    fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>, walls: bool) -> f64 {
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
         };
-        let Bodies { position, velocity, mass, inverse_mass, diameter, .. } = &mut self.bodies;
+        let n = self.bodies.len();
+        let chunks = n.div_ceil(CHUNK);
         let method = self.integrator;
         let velocity_dependent = self.forces.depends_on_velocity();
-        if !self.forces.is_local() {
+        let local = self.forces.is_local();
+        if !local {
+            let Bodies { position, velocity, mass, inverse_mass, diameter, .. } = &mut self.bodies;
             self.scratch.resize_with(1, Default::default);
             let props = BodyProps { mass, inverse_mass, diameter };
             // `&mut`: the attraction pass builds its tree and keeps the orbit rate it met.
@@ -480,62 +525,109 @@ impl Lockstep {
             integrate(method, dt, position, velocity, velocity_dependent, &mut self.scratch[0], |x, v, a| {
                 forces.accelerations(props, pull, x, v, a)
             });
-            return;
         }
-        let forces = &self.forces;
-        self.scratch.resize_with(position.len().div_ceil(CHUNK), Default::default);
-        let (mass, inverse_mass, diameter) = (&mass[..], &inverse_mass[..], &diameter[..]);
+        self.scratch.resize_with(chunks.max(self.scratch.len()), Default::default);
+        // Where the balls were when the pairs were last found, if those pairs may still serve.
+        let built = (self.effects.collisions.is_some() && !self.grid_stale && self.built_positions.len() == n)
+            .then_some(&self.built_positions[..]);
+        let key = self.bodies.key_index();
+        let Bodies { position, velocity, mass, inverse_mass, diameter, radius, .. } = &mut self.bodies;
+        let (mass, inverse_mass, diameter, radius) = (&mass[..], &inverse_mass[..], &diameter[..], &radius[..]);
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let walls =
+            walls.then_some(WallPass { field: &self.field, gravity, pull: self.pull, key, radius, mass, inverse_mass });
+        let step = local.then_some(LocalStep {
+            method,
+            dt,
+            velocity_dependent,
+            forces: &self.forces,
+            pull,
+            mass,
+            inverse_mass,
+            diameter,
+        });
         let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], scratch: &mut IntegratorScratch| {
-            let range = c * CHUNK..c * CHUNK + x.len();
-            let pull =
-                pull.filter(|p| range.contains(&p.index)).map(|p| PointForce { index: p.index - range.start, ..p });
-            if forces.is_empty() && pull.is_none() {
-                // No force at all: every integrator reduces to a straight drift, so that is all we do.
-                for (x, v) in x.iter_mut().zip(v.iter()) {
-                    *x += *v * dt;
-                }
-                return;
+            let base = c * CHUNK;
+            if let Some(step) = &step {
+                step.run(base, x, v, scratch);
             }
-            let props = BodyProps {
-                mass: &mass[range.clone()],
-                inverse_mass: &inverse_mass[range.clone()],
-                diameter: &diameter[range],
-            };
-            integrate(method, dt, x, v, velocity_dependent, scratch, |x, v, a| {
-                forces.local_accelerations(props, pull, x, v, a)
-            });
+            let mut tally = ChunkTally::default();
+            if let Some(walls) = &walls {
+                for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
+                    walls.bounce(base + k, x, v, &mut tally);
+                }
+            }
+            if let Some(built) = built {
+                tally.moved2 = x.iter().zip(&built[base..]).fold(0.0, |m, (x, x0)| m.max(x.distance_squared(*x0)));
+            }
+            tally
         };
-        match pool {
-            Some(pool) => pool.install(|| {
-                position
-                    .par_chunks_mut(CHUNK)
-                    .zip(velocity.par_chunks_mut(CHUNK))
-                    .zip(&mut self.scratch)
-                    .enumerate()
-                    .for_each(|(c, ((x, v), scratch))| chunk(c, x, v, scratch))
-            }),
-            None => position
-                .chunks_mut(CHUNK)
-                .zip(velocity.chunks_mut(CHUNK))
-                .zip(&mut self.scratch)
-                .enumerate()
-                .for_each(|(c, ((x, v), scratch))| chunk(c, x, v, scratch)),
-        }
+        for_chunks(pool, position, velocity, &mut self.scratch, &mut self.tallies, chunk);
+        let stale = self.effects.collisions.is_some() && built.is_none();
+        let moved2 = self.tallies.iter().fold(0.0f64, |m, t| m.max(t.moved2));
+        self.add_wall_tallies();
+        if stale { f64::INFINITY } else { moved2 }
     }
 
-    /// Caps every speed at [`MAX_SPEED`] (a guard rail for fields faster than the sub-steps can
-    /// resolve; see there). One pass over the velocities, which the step reads anyway.
-    fn limit_speeds(&mut self) {
-        let mut limited = 0;
-        for v in &mut self.bodies.velocity {
-            let speed2 = v.length_squared();
-            // A NaN fails the first test too, and becomes zero rather than spreading.
-            if speed2.is_nan() || speed2 > MAX_SPEED * MAX_SPEED {
-                *v = if speed2.is_finite() { *v * (MAX_SPEED / speed2.sqrt()) } else { DVec2::ZERO };
-                limited += 1;
+    /// The last pass of a sub-step, ball by ball in chunks: the speed capped at [`MAX_SPEED`], the
+    /// walls (unless they went first: `walls`), and the speeds the next sub-step's split needs
+    /// (kept for [`Lockstep::substeps_needed`]).
+    fn finish_phase(&mut self, pool: Option<&rayon::ThreadPool>, walls: bool) {
+        let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
+        let key = self.bodies.key_index();
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let Bodies { position, velocity, radius, mass, inverse_mass, diameter, .. } = &mut self.bodies;
+        let (radius, mass, inverse_mass, diameter) = (&radius[..], &mass[..], &inverse_mass[..], &diameter[..]);
+        let walls =
+            walls.then_some(WallPass { field: &self.field, gravity, pull: self.pull, key, radius, mass, inverse_mass });
+        let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], _: &mut IntegratorScratch| {
+            // One loop per job over the chunk (it is in cache by then): each stays simple enough
+            // for the compiler to vectorise, which one loop doing all of them is not.
+            let range = c * CHUNK..c * CHUNK + x.len();
+            let mut tally = ChunkTally::default();
+            for v in v.iter_mut() {
+                if cap_speed(v) {
+                    tally.speed_limited += 1;
+                }
             }
+            if let Some(walls) = &walls {
+                for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
+                    walls.bounce(range.start + k, x, v, &mut tally);
+                }
+            }
+            tally.speeds = SplitSpeeds::measure(
+                collisions,
+                drag,
+                v,
+                &radius[range.clone()],
+                &diameter[range.clone()],
+                &mass[range],
+            );
+            tally
+        };
+        for_chunks(pool, position, velocity, &mut self.scratch, &mut self.tallies, chunk);
+        let mut speeds = SplitSpeeds::default();
+        for t in &self.tallies {
+            speeds.travel2 = speeds.travel2.max(t.speeds.travel2);
+            speeds.drag_rate = speeds.drag_rate.max(t.speeds.drag_rate);
+            speeds.drag_c = speeds.drag_c.max(t.speeds.drag_c);
+            self.counters.speed_limited += t.speed_limited;
         }
-        self.counters.speed_limited += limited;
+        self.split_speeds = Some(speeds);
+        self.add_wall_tallies();
+    }
+
+    /// Adds the chunks' wall impulses to the run's, chunk after chunk (the same order, so the same
+    /// bits, on any number of threads), and clears them.
+    fn add_wall_tallies(&mut self) {
+        for t in &mut self.tallies {
+            if t.wall_contacts > 0 {
+                self.wall_impulses.add_all(&t.walls);
+                self.counters.wall_contacts += t.wall_contacts;
+            }
+            t.walls = WallImpulses::default();
+            t.wall_contacts = 0;
+        }
     }
 
     /// The direction of gravity when the contacts get a support pass: inelastic piles under
@@ -548,22 +640,13 @@ impl Lockstep {
     }
 
     /// Finds the candidate pairs afresh only when some ball has moved more than half the skin
-    /// since the last search (see [`SKIN`]); otherwise the last list still holds every touching
-    /// pair and the solver checks each for overlap itself.
-    fn broad_phase_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
+    /// since the last search (`moved2`, the largest squared distance, measured by the integrate
+    /// pass; see [`SKIN`]); otherwise the last list still holds every touching pair and the
+    /// solver checks each for overlap itself.
+    fn broad_phase_phase(&mut self, moved2: f64, pool: Option<&rayon::ThreadPool>) {
         let b = &self.bodies;
         let half_skin = 0.5 * self.broad_phase.skin();
-        let fresh = !self.grid_stale && self.built_positions.len() == b.len() && {
-            let moved = |(x, x0): (&DVec2, &DVec2)| x.distance_squared(*x0);
-            // The largest of the squares: the same whatever the order, so on any thread count.
-            let farthest = match pool {
-                Some(pool) => pool
-                    .install(|| b.position.par_iter().zip(&self.built_positions).map(moved).reduce(|| 0.0, f64::max)),
-                None => b.position.iter().zip(&self.built_positions).map(moved).fold(0.0, f64::max),
-            };
-            farthest <= half_skin * half_skin
-        };
-        if !fresh {
+        if moved2 > half_skin * half_skin {
             let support = self.support_direction();
             self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
             let (grid, contacts) = (&self.broad_phase, &mut self.contacts);
@@ -577,50 +660,6 @@ impl Lockstep {
             self.counters.grid_builds += 1;
         }
         self.counters.touching_pairs += self.contacts.pair_count() as u64;
-    }
-
-    /// Walls, in chunks of [`CHUNK`] balls; each chunk sums its own wall impulses and the chunks'
-    /// sums are added in chunk order, so the total has the same bits on any number of threads.
-    fn walls_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
-        // (Counted in `counters.walls` by the caller.)
-        let gravity = self.effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
-        let key = self.bodies.key_index();
-        let (pull, field) = (self.pull, &self.field);
-        let Bodies { position, velocity, radius, mass, inverse_mass, .. } = &mut self.bodies;
-        let (radius, mass, inverse_mass) = (&radius[..], &mass[..], &inverse_mass[..]);
-        let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2]| {
-            let mut impulses = WallImpulses::default();
-            let mut touched = 0u64;
-            for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
-                let i = c * CHUNK + k;
-                // The ball's uniform acceleration during the step, for an exact bounce.
-                let acceleration = if Some(i) == key { gravity + pull * inverse_mass[i] } else { gravity };
-                if contact_ball_wall(x, v, radius[i], mass[i], acceleration, field, &mut impulses) {
-                    touched += 1;
-                }
-            }
-            (impulses, touched)
-        };
-        let sums: Vec<(WallImpulses, u64)> = match pool {
-            Some(pool) => pool.install(|| {
-                position
-                    .par_chunks_mut(CHUNK)
-                    .zip(velocity.par_chunks_mut(CHUNK))
-                    .enumerate()
-                    .map(|(c, (x, v))| chunk(c, x, v))
-                    .collect()
-            }),
-            None => position
-                .chunks_mut(CHUNK)
-                .zip(velocity.chunks_mut(CHUNK))
-                .enumerate()
-                .map(|(c, (x, v))| chunk(c, x, v))
-                .collect(),
-        };
-        for (impulses, touched) in &sums {
-            self.wall_impulses.add_all(impulses);
-            self.counters.wall_contacts += touched;
-        }
     }
 
     /// Energies, momentum, overlap and wall impulses now.
@@ -662,4 +701,157 @@ pub fn state_hash(b: &Bodies) -> u64 {
         eat(b.diameter[i].to_bits());
     }
     h
+}
+
+/// The speeds a step's split is judged by (see `Lockstep::substeps_needed`): the largest
+/// `(|v|/r)²` (with collisions on) and the largest drag rate (with drag on).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct SplitSpeeds {
+    travel2: f64,
+    drag_rate: f64,
+    /// Largest quadratic drag rate at 1 m/s (`c`, 1/m; 0 for linear drag).
+    drag_c: f64,
+}
+
+impl SplitSpeeds {
+    /// The speeds of the balls with velocities `v` (and these radii, diameters and masses).
+    fn measure(
+        collisions: bool,
+        drag: Option<&Drag>,
+        v: &[DVec2],
+        radius: &[f64],
+        diameter: &[f64],
+        mass: &[f64],
+    ) -> Self {
+        let mut speeds = SplitSpeeds::default();
+        if collisions {
+            speeds.travel2 = v.iter().zip(radius).fold(0.0, |w, (v, r)| w.max(v.length_squared() / (r * r)));
+        }
+        if let Some(drag) = drag {
+            let rates = v.iter().zip(diameter).zip(mass);
+            speeds.drag_rate = rates.fold(0.0, |w, ((v, d), m)| w.max(drag_rate(*v, *d, *m, drag)));
+            if let Drag::Quadratic { .. } = drag {
+                let c = diameter.iter().zip(mass);
+                speeds.drag_c = c.fold(0.0, |w, (d, m)| w.max(drag_rate(DVec2::X, *d, *m, drag)));
+            }
+        }
+        speeds
+    }
+}
+
+/// What one pass measured over one chunk of balls. The chunks' tallies are combined in chunk
+/// order, so the totals have the same bits on any number of threads.
+#[derive(Clone, Copy, Debug, Default)]
+struct ChunkTally {
+    walls: WallImpulses,
+    wall_contacts: u64,
+    speed_limited: u64,
+    /// Largest squared distance a ball has moved since the pairs were last found.
+    moved2: f64,
+    speeds: SplitSpeeds,
+}
+
+/// The walls as each ball meets them (see `contact_ball_wall`).
+struct WallPass<'a> {
+    field: &'a Field,
+    gravity: DVec2,
+    pull: DVec2,
+    key: Option<usize>,
+    radius: &'a [f64],
+    mass: &'a [f64],
+    inverse_mass: &'a [f64],
+}
+
+impl WallPass<'_> {
+    /// Ball `i`, at `x` with `v`, against the walls; its impulses and contact go into `tally`.
+    #[inline(always)]
+    fn bounce(&self, i: usize, x: &mut DVec2, v: &mut DVec2, tally: &mut ChunkTally) {
+        // The ball's uniform acceleration during the step, for an exact bounce.
+        let acceleration =
+            if Some(i) == self.key { self.gravity + self.pull * self.inverse_mass[i] } else { self.gravity };
+        if contact_ball_wall(x, v, self.radius[i], self.mass[i], acceleration, self.field, &mut tally.walls) {
+            tally.wall_contacts += 1;
+        }
+    }
+}
+
+/// Local forces (no attraction) applied to one chunk of balls inside the integrator.
+struct LocalStep<'a> {
+    method: Integrator,
+    dt: f64,
+    velocity_dependent: bool,
+    forces: &'a Forces,
+    pull: Option<PointForce>,
+    mass: &'a [f64],
+    inverse_mass: &'a [f64],
+    diameter: &'a [f64],
+}
+
+impl LocalStep<'_> {
+    /// Integrates the balls `base..base + x.len()`.
+    fn run(&self, base: usize, x: &mut [DVec2], v: &mut [DVec2], scratch: &mut IntegratorScratch) {
+        let range = base..base + x.len();
+        let pull = self.pull.filter(|p| range.contains(&p.index)).map(|p| PointForce { index: p.index - base, ..p });
+        if self.forces.is_empty() && pull.is_none() {
+            // No force at all: every integrator reduces to a straight drift, so that is all we do.
+            for (x, v) in x.iter_mut().zip(v.iter()) {
+                *x += *v * self.dt;
+            }
+            return;
+        }
+        let props = BodyProps {
+            mass: &self.mass[range.clone()],
+            inverse_mass: &self.inverse_mass[range.clone()],
+            diameter: &self.diameter[range],
+        };
+        let forces = self.forces;
+        integrate(self.method, self.dt, x, v, self.velocity_dependent, scratch, |x, v, a| {
+            forces.local_accelerations(props, pull, x, v, a)
+        });
+    }
+}
+
+/// Caps a speed at [`MAX_SPEED`] (a guard rail for fields faster than the sub-steps can resolve;
+/// see there). A NaN fails the first test too, and becomes zero rather than spreading. Returns
+/// whether it capped.
+#[inline]
+fn cap_speed(v: &mut DVec2) -> bool {
+    let speed2 = v.length_squared();
+    if speed2.is_nan() || speed2 > MAX_SPEED * MAX_SPEED {
+        *v = if speed2.is_finite() { *v * (MAX_SPEED / speed2.sqrt()) } else { DVec2::ZERO };
+        true
+    } else {
+        false
+    }
+}
+
+/// Runs `f(chunk, positions, velocities, scratch)` over the balls in fixed chunks of [`CHUNK`]
+/// (on the pool's threads when there is one) and leaves the chunks' tallies in `out`, in chunk
+/// order. How the balls are cut depends on their number only.
+fn for_chunks<F>(
+    pool: Option<&rayon::ThreadPool>,
+    x: &mut [DVec2],
+    v: &mut [DVec2],
+    scratch: &mut [IntegratorScratch],
+    out: &mut Vec<ChunkTally>,
+    f: F,
+) where
+    F: Fn(usize, &mut [DVec2], &mut [DVec2], &mut IntegratorScratch) -> ChunkTally + Sync + Send,
+{
+    debug_assert!(scratch.len() >= x.len().div_ceil(CHUNK));
+    match pool {
+        Some(pool) => pool.install(|| {
+            x.par_chunks_mut(CHUNK)
+                .zip(v.par_chunks_mut(CHUNK))
+                .zip(scratch.par_iter_mut())
+                .enumerate()
+                .map(|(c, ((x, v), s))| f(c, x, v, s))
+                .collect_into_vec(out)
+        }),
+        None => {
+            out.clear();
+            let chunks = x.chunks_mut(CHUNK).zip(v.chunks_mut(CHUNK)).zip(scratch.iter_mut());
+            out.extend(chunks.enumerate().map(|(c, ((x, v), s))| f(c, x, v, s)));
+        }
+    }
 }

@@ -6,7 +6,7 @@ mod common;
 use ballfield::Lockstep;
 use ballfield::physics::{
     Attraction, DEFAULT_OPENING_ANGLE, Drag, Effects, Gravity, Integrator, attraction_force, attraction_potential,
-    disc_area, drag_force,
+    disc_area, drag_force, drag_rate, drag_rate_bound, quadratic_terminal_speed,
 };
 use ballfield::scenes;
 use common::*;
@@ -52,6 +52,28 @@ fn drag_follows_its_formulas() {
     let l = drag_force(v, 2.0, &Drag::Linear { mu: 1.81e-5 });
     assert!((l - -3.0 * std::f64::consts::PI * 1.81e-5 * 2.0 * v).length() < 1e-18);
     assert_eq!(drag_force(DVec2::ZERO, 2.0, &Drag::default()), DVec2::ZERO);
+}
+
+/// The drag rate a step must resolve: the rate now, or the rate at the terminal speed the other
+/// forces drive the ball to — `c·v_t` with `v_t` the analytic terminal speed — whichever is larger.
+#[test]
+fn the_drag_rate_bound_is_the_rate_at_the_terminal_speed() {
+    let (rho, cd, d, m, g) = (1.225, 0.47, 2.2, 1.6e-3, 9.81);
+    let drag = Drag::Quadratic { rho, cd };
+    let down = DVec2::new(0.0, -g);
+    let terminal = quadratic_terminal_speed(m, d, g, rho, cd);
+    let at_terminal = drag_rate(DVec2::new(terminal, 0.0), d, m, &drag);
+    // At rest, and below the terminal speed: the terminal speed's rate.
+    for speed in [0.0, 0.5 * terminal] {
+        let bound = drag_rate_bound(DVec2::new(0.0, -speed), down, d, m, &drag);
+        assert!((bound - at_terminal).abs() <= 1e-12 * at_terminal, "{bound} vs {at_terminal}");
+    }
+    // Faster than it: the rate now.
+    let fast = DVec2::new(0.0, -3.0 * terminal);
+    assert_eq!(drag_rate_bound(fast, down, d, m, &drag), drag_rate(fast, d, m, &drag));
+    // Linear drag's rate does not depend on the speed.
+    let linear = Drag::Linear { mu: 1.81e-5 };
+    assert_eq!(drag_rate_bound(DVec2::ZERO, down * 1e6, d, m, &linear), drag_rate(DVec2::ZERO, d, m, &linear));
 }
 
 /// Two heavy balls released at rest with collisions off pass through each other's centre

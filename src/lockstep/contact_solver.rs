@@ -25,7 +25,8 @@ use crate::physics::{
     BallId, Bodies, BroadPhase, ContactBody, Field, clamp_to_field, contact_ball_ball, contact_supported,
 };
 
-/// Fewest touching pairs for which the contact phase is worked in parallel.
+/// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
+/// many as there are balls; see [`ContactSolver::solve`]).
 pub const PARALLEL_MIN_PAIRS: usize = 512;
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes).
@@ -119,7 +120,11 @@ impl ContactSolver {
         if self.pair_count() == 0 {
             return 0;
         }
-        if parallel && self.pair_count() >= PARALLEL_MIN_PAIRS {
+        // The parallel solver first copies every ball into slot order and back (O(n)), which a
+        // sparse field's few pairs do not pay for: it takes the bands in parallel only when there
+        // are at least half as many pairs as balls (a pile has about three per ball, a falling
+        // rain one per ten). Both ways give the same bits.
+        if parallel && self.pair_count() >= PARALLEL_MIN_PAIRS.max(bodies.len() / 2) {
             self.solve_parallel(bodies, grid, restitution, dt, iterations)
         } else {
             self.solve_serial(bodies, grid, restitution, dt, iterations)

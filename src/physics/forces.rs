@@ -6,7 +6,7 @@
 use glam::DVec2;
 
 use super::barnes_hut::BarnesHut;
-use super::effects::{Attraction, Drag, Effects, attraction_pair, drag_force};
+use super::effects::{Attraction, Drag, Effects, attraction_pair, drag_force, drag_rate};
 
 /// Per-ball constants that forces need, as parallel slices indexed like the state.
 #[derive(Clone, Copy, Debug)]
@@ -80,6 +80,11 @@ pub struct Forces {
     radius: Vec<f64>,
     scratch: Vec<DVec2>,
     orbit_rate_squared: Option<f64>,
+    /// With attraction and quadratic drag on: the accelerations before the attraction pass, and
+    /// the largest `(|a|·c)²` met since last asked, `a` a ball's acceleration without drag (see
+    /// [`Forces::take_terminal_drag_rate`]).
+    before_attraction: Vec<DVec2>,
+    terminal_drag_rate4: Option<f64>,
 }
 
 impl Forces {
@@ -147,26 +152,69 @@ impl Forces {
         self.orbit_rate_squared.take()
     }
 
-    /// Forgets the orbit rate met so far (the balls changed: it no longer describes them).
+    /// With attraction and quadratic drag on: the largest drag rate the balls would meet at the
+    /// terminal speed their other forces (gravity, attraction, the pull) drive them to, as met in
+    /// the force evaluations since the last call (see [`crate::physics::drag_rate_bound`]), and
+    /// forgets it; `None` if there was none. Attraction can pull a light, large ball hard enough
+    /// that drag turns stiff within one step: the engines split their steps by this rate too.
+    pub fn take_terminal_drag_rate(&mut self) -> Option<f64> {
+        self.terminal_drag_rate4.take().map(|r4| r4.sqrt().sqrt())
+    }
+
+    /// Forgets the orbit rate (and terminal drag rate) met so far (the balls changed: they no
+    /// longer describe them).
     pub fn forget_orbit_rate(&mut self) {
         self.orbit_rate_squared = None;
+        self.terminal_drag_rate4 = None;
     }
 
     /// The largest `ω²` of the balls at `pos` now, by a force evaluation of the attraction pass
     /// alone (0 with attraction off). For when [`Forces::take_orbit_rate_squared`] has nothing.
     pub fn orbit_rate_squared(&mut self, props: BodyProps<'_>, pos: &[DVec2]) -> f64 {
-        let Some(attraction) = self.passes.iter().find_map(|p| match p {
-            ForcePass::Attraction(a) => Some(*a),
-            _ => None,
-        }) else {
-            return 0.0;
+        self.attraction_rates(props, pos).0
+    }
+
+    /// [`Forces::orbit_rate_squared`], and the terminal drag rate of
+    /// [`Forces::take_terminal_drag_rate`] (0 without quadratic drag) from the same evaluation
+    /// (without the pull, which the evaluation does not know).
+    pub fn attraction_rates(&mut self, props: BodyProps<'_>, pos: &[DVec2]) -> (f64, f64) {
+        let Some(attraction) = self.attraction_effect() else {
+            return (0.0, 0.0);
         };
         let mut acc = std::mem::take(&mut self.scratch);
         acc.clear();
         acc.resize(pos.len(), DVec2::ZERO);
         let worst = self.attraction(props, pos, &attraction, &mut acc);
+        let g = self.gravity();
+        let terminal =
+            self.quadratic_drag().map_or(0.0, |drag| terminal_drag_rate4(props, &drag, |i| acc[i] + g).sqrt().sqrt());
         self.scratch = acc;
-        worst
+        (worst, terminal)
+    }
+
+    fn attraction_effect(&self) -> Option<Attraction> {
+        self.passes.iter().find_map(|p| match p {
+            ForcePass::Attraction(a) => Some(*a),
+            _ => None,
+        })
+    }
+
+    fn gravity(&self) -> DVec2 {
+        self.passes
+            .iter()
+            .find_map(|p| match p {
+                ForcePass::Gravity(g) => Some(*g),
+                _ => None,
+            })
+            .unwrap_or(DVec2::ZERO)
+    }
+
+    /// The drag, when it is quadratic (the only kind whose rate grows with speed).
+    fn quadratic_drag(&self) -> Option<Drag> {
+        self.passes.iter().find_map(|p| match p {
+            ForcePass::Drag(d @ Drag::Quadratic { .. }) => Some(*d),
+            _ => None,
+        })
     }
 
     /// Fills `acc[i]` with the acceleration of ball i in the state (`pos`, `vel`), plus `pull`.
@@ -185,9 +233,16 @@ impl Forces {
         let n = pos.len();
         debug_assert!(vel.len() == n && acc.len() == n && props.mass.len() == n);
         acc.fill(DVec2::ZERO);
+        // Attraction with quadratic drag: what the drag (after gravity) added is kept aside, to
+        // tell each ball's acceleration without it afterwards (the sums in `acc` are untouched).
+        let drag = self.quadratic_drag().filter(|_| !self.is_local());
         for k in 0..self.passes.len() {
             match self.passes[k] {
                 ForcePass::Attraction(attraction) => {
+                    if drag.is_some() {
+                        self.before_attraction.clear();
+                        self.before_attraction.extend_from_slice(acc);
+                    }
                     let worst = self.attraction(props, pos, &attraction, acc);
                     self.orbit_rate_squared = Some(self.orbit_rate_squared.map_or(worst, |w| w.max(worst)));
                 }
@@ -195,6 +250,12 @@ impl Forces {
             }
         }
         add_pull(pull, props, acc);
+        if let Some(drag) = drag {
+            // acc − (gravity + drag) + gravity: gravity, attraction and the pull.
+            let (g, before) = (self.gravity(), &self.before_attraction);
+            let worst = terminal_drag_rate4(props, &drag, |i| acc[i] - before[i] + g);
+            self.terminal_drag_rate4 = Some(self.terminal_drag_rate4.map_or(worst, |w| w.max(worst)));
+        }
     }
 
     /// [`Forces::accelerations`] for forces that are [local](Forces::is_local) (no attraction):
@@ -257,6 +318,16 @@ fn local_pass(pass: ForcePass, props: BodyProps<'_>, vel: &[DVec2], acc: &mut [D
         }
         ForcePass::Attraction(_) => unreachable!("attraction is not a local pass"),
     }
+}
+
+/// The largest `(|a_i|·c_i)²` over the balls, `a_i = accel(i)` a ball's acceleration without drag
+/// and `c_i` its quadratic drag rate at 1 m/s: the fourth power of the largest drag rate at the
+/// terminal speed (see [`crate::physics::drag_rate_bound`]), without a square root per ball.
+fn terminal_drag_rate4(props: BodyProps<'_>, drag: &Drag, accel: impl Fn(usize) -> DVec2) -> f64 {
+    (0..props.mass.len()).fold(0.0, |w, i| {
+        let c = drag_rate(DVec2::X, props.diameter[i], props.mass[i], drag);
+        w.max(accel(i).length_squared() * c * c)
+    })
 }
 
 /// Adds the pull on one ball, last (after every pass).
