@@ -90,6 +90,9 @@ pub struct StepCounters {
     pub supported: u64,
     /// Times a ball's speed was capped at [`MAX_SPEED`] (0 in every sane field).
     pub speed_limited: u64,
+    /// Sub-steps whose drag was too stiff even for the shortest sub-step, so the drag pass capped
+    /// its rate at 1/h (see [`Forces::set_drag_rate_limit`]; 0 in every sane field).
+    pub drag_limited: u64,
 }
 
 fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
@@ -141,6 +144,8 @@ pub struct Lockstep {
     /// The speeds the next sub-step's split is judged by, as the last finishing pass left them;
     /// `None` when they must be measured afresh (first step, balls or effects changed).
     split_speeds: Option<SplitSpeeds>,
+    /// The drag rate the last split was judged by (see [`Lockstep::substeps_needed`]), 1/s.
+    drag_rate: f64,
     /// The chunks' tallies of the last chunked pass (kept to reuse the memory).
     tallies: Vec<ChunkTally>,
     threads: usize,
@@ -190,6 +195,7 @@ impl Lockstep {
             contacts: ContactSolver::default(),
             adaptive_substeps: true,
             split_speeds: None,
+            drag_rate: 0.0,
             tallies: Vec::new(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             pool: None,
@@ -377,6 +383,10 @@ impl Lockstep {
             let n = if self.adaptive_substeps { self.substeps_needed(remaining) } else { 1 };
             // The last sub-step is exactly what is left, so `remaining` becomes exactly zero.
             let h = if n == 1 { remaining } else { (remaining / n as f64).max(shortest).min(remaining) };
+            // Drag the shortest sub-step still cannot resolve gets its guard rail.
+            let stiff = self.adaptive_substeps && self.drag_rate * h > MAX_DRAG_STEP;
+            self.forces.set_drag_rate_limit(if stiff { 1.0 / h } else { f64::INFINITY });
+            self.counters.drag_limited += stiff as u64;
             self.substep(h);
             remaining -= h;
             taken += 1;
@@ -408,6 +418,7 @@ impl Lockstep {
             }
         };
         let mut need = 1.0f64;
+        self.drag_rate = 0.0;
         if self.effects.collisions.is_some() {
             need = need.max(speeds.travel2.sqrt() * span / MAX_TRAVEL);
         }
@@ -422,6 +433,7 @@ impl Lockstep {
                 rate = rate.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
             }
             need = need.max(rate * span / MAX_DRAG_STEP);
+            self.drag_rate = rate;
         }
         if self.effects.attraction.is_some() {
             // The attraction pass measures the fastest orbit rate while it sums the forces
@@ -446,6 +458,7 @@ impl Lockstep {
             };
             need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
             need = need.max(terminal * span / MAX_DRAG_STEP);
+            self.drag_rate = self.drag_rate.max(terminal);
         }
         if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) }
     }
