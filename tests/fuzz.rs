@@ -128,7 +128,10 @@ proptest! {
     /// re-judged before every sub-step); a field that wanted more than the sub-step cap all the
     /// way through spent its last sub-step on a third of dt and blew up (sub-steps now have a
     /// floor of dt / 4,096 instead of a count cap); fields faster than even that floor resolves
-    /// could still run away under explicit Euler (speeds now capped at `MAX_SPEED`, counted).
+    /// could still run away under explicit Euler (speeds now capped at `MAX_SPEED`, counted); a
+    /// light ball pulled hard into its drag turned stiff within a sub-step (the split now bounds
+    /// the drag rate by the terminal speed); drag too stiff even for the shortest sub-step threw
+    /// balls to infinity (its rate is now capped at 1/h, counted). The last two are tests below.
     #[test]
     fn random_fields_stay_finite_and_inside(
         balls in (1usize..40).prop_flat_map(|n| {
