@@ -410,3 +410,76 @@ fn the_headless_report_names_the_tree() {
     assert_eq!(json["active_effects"], serde_json::json!(["attraction (tree)"]));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `force_at` at a ball's own state, excluding itself, is `force_and_rate` bit for bit (one walk
+/// serves both), on a clustered field at the default θ where far nodes are approximated.
+#[test]
+fn force_at_a_balls_own_state_is_force_and_rate() {
+    let field = clustered(3_000, 11);
+    let att = Attraction { g_constant: 1.0, opening_angle: DEFAULT_OPENING_ANGLE };
+    let r = field.radius();
+    let mut tree = BarnesHut::new();
+    tree.build(&field.pos, &field.mass, &r, &att);
+    for i in 0..field.pos.len() {
+        let (f, w2) = tree.force_and_rate(i);
+        let (g, v2) = tree.force_at(field.pos[i], field.mass[i], r[i], Some(i));
+        assert_eq!((f.x.to_bits(), f.y.to_bits()), (g.x.to_bits(), g.y.to_bits()), "ball {i}: {f} vs {g}");
+        assert_eq!(w2.to_bits(), v2.to_bits(), "ball {i}: rate {w2} vs {v2}");
+    }
+}
+
+/// At θ = 0, `force_at` anywhere is the direct sum over the tree's balls less the excluded one —
+/// for a body the tree does not hold (nothing excluded), and for a ball that has moved far from
+/// its entry in the tree.
+#[test]
+fn force_at_with_theta_zero_is_the_direct_sum() {
+    let field = uniform(2_000, 12);
+    let att = Attraction { g_constant: 1.0, opening_angle: 0.0 };
+    let r = field.radius();
+    let mut tree = BarnesHut::new();
+    tree.build(&field.pos, &field.mass, &r, &att);
+    let direct = |p: DVec2, m: f64, rad: f64, skip: Option<usize>| {
+        let mut f = DVec2::ZERO;
+        for j in 0..field.pos.len() {
+            if Some(j) != skip {
+                f += attraction_force(p, m, rad, field.pos[j], field.mass[j], r[j], &att);
+            }
+        }
+        f
+    };
+    for (p, m, rad, skip) in [
+        (DVec2::new(17.0, 250.0), 3.0, 0.4, None),
+        (DVec2::new(-40.0, 500.0), 0.1, 2.0, None),
+        (field.pos[5] + DVec2::new(80.0, -30.0), field.mass[5], r[5], Some(5)),
+        (field.pos[1999], 7.0, 0.3, Some(1999)),
+    ] {
+        let (f, _) = tree.force_at(p, m, rad, skip);
+        let exact = direct(p, m, rad, skip);
+        assert!((f - exact).length() <= 1e-12 * exact.length(), "at {p}: {f} vs {exact}");
+    }
+}
+
+/// A body that has moved away from its own (heavy) entry in the tree never feels that entry, even
+/// where the node holding it is far enough to be approximated: the node is opened instead.
+#[test]
+fn force_at_never_counts_the_excluded_ball_in_a_multipole() {
+    let mut rng = Rng(13);
+    let mut pos: Vec<DVec2> = (0..500).map(|_| DVec2::new(100.0 * rng.next(), 100.0 * rng.next())).collect();
+    let mut field = Field::new(std::mem::take(&mut pos), &mut rng);
+    // Ball 0 is a thousand times heavier than all the others together, in a corner.
+    field.pos[0] = DVec2::new(1.0, 1.0);
+    field.mass[0] = 1e6;
+    let att = Attraction { g_constant: 1.0, opening_angle: DEFAULT_OPENING_ANGLE };
+    let r = field.radius();
+    let mut tree = BarnesHut::new();
+    tree.build(&field.pos, &field.mass, &r, &att);
+    // The same body, moved to the far corner.
+    let p = DVec2::new(99.0, 99.0);
+    let (f, _) = tree.force_at(p, field.mass[0], r[0], Some(0));
+    let mut exact = DVec2::ZERO;
+    for j in 1..field.pos.len() {
+        exact += attraction_force(p, field.mass[0], r[0], field.pos[j], field.mass[j], r[j], &att);
+    }
+    let err = (f - exact).length() / exact.length();
+    assert!(err < 0.01, "force {f} vs the others' {exact}: {err:e} off (its own old mass counted?)");
+}

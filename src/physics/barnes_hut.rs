@@ -12,9 +12,10 @@
 //!
 //! Use: [`BarnesHut::build`] once per force evaluation (`&mut self`: the arena of nodes and the
 //! sorted copies are kept and reused, so a build allocates nothing once the field stops growing),
-//! then any number of queries [`BarnesHut::force`] / [`BarnesHut::force_and_rate`] (`&self`: they
-//! read the tree only, so they can run on several threads at once). The result for a ball depends
-//! on the tree alone — never on which thread asks or in which order.
+//! then any number of queries — [`BarnesHut::force`] / [`BarnesHut::force_and_rate`] for a ball of
+//! the tree, [`BarnesHut::force_at`] for a body anywhere (`&self`: they read the tree only, so they
+//! can run on several threads at once; the threaded runtime's ball threads share one tree). The
+//! result for a ball depends on the tree alone — never on which thread asks or in which order.
 //!
 //! Deterministic: the tree is built from Morton codes sorted with the ball's index as tie-break,
 //! children are always visited in the same order, and every sum runs in a fixed order.
@@ -305,7 +306,30 @@ impl BarnesHut {
     /// would orbit that node's whole mass M.
     pub fn force_and_rate(&self, i: usize) -> (DVec2, f64) {
         let s = self.slot[i] as usize;
-        let (p, m, r, inv_m) = (self.pos[s], self.mass[s], self.radius[s], self.inverse_mass[s]);
+        self.walk(self.pos[s], self.mass[s], self.radius[s], self.inverse_mass[s], Some(s))
+    }
+
+    /// The force (N) and the square of the fastest orbit rate (1/s², as in
+    /// [`BarnesHut::force_and_rate`]) on a body of `mass` and `radius` at `position` — anywhere,
+    /// in the tree or not — from every ball of the tree except `exclude` (a ball index of the last
+    /// build: the body itself, when the tree holds an older state of it).
+    ///
+    /// For a ball of the tree at its own state, `force_at(pos[i], mass[i], radius[i], Some(i))` is
+    /// `force_and_rate(i)`, bit for bit (one walk serves both). A body that has moved away from
+    /// its excluded entry still never feels it: a node that holds the excluded ball is always
+    /// opened, never replaced by its multipole (which would include the body's own mass).
+    /// Panics if `exclude` is not a ball of the last build.
+    pub fn force_at(&self, position: DVec2, mass: f64, radius: f64, exclude: Option<usize>) -> (DVec2, f64) {
+        let s = exclude.map(|i| self.slot[i] as usize);
+        self.walk(position, mass, radius, 1.0 / mass, s)
+    }
+
+    /// The tree walk behind both queries: body at `p` with mass `m` (inverse `inv_m`) and radius
+    /// `r`; `skip` is the excluded ball's position in tree order.
+    #[inline]
+    fn walk(&self, p: DVec2, m: f64, r: f64, inv_m: f64, skip: Option<usize>) -> (DVec2, f64) {
+        // `usize::MAX` is in no node's range: nothing skipped.
+        let s = skip.unwrap_or(usize::MAX);
         let att = &self.attraction;
         let nodes = self.nodes.as_slice();
         // Exact pairs as forces; far nodes as accelerations over G (one multiplication at the end).
@@ -318,7 +342,11 @@ impl BarnesHut {
             let nd = &nodes[k];
             let d = nd.com - p;
             let r2 = d.length_squared();
-            if r2 > nd.open2 {
+            // A node holding the excluded ball is opened. For a ball at its own tree position this
+            // changes nothing (the contact test below already opens every node around it); for a
+            // body that moved, it keeps the body's own old mass out of the multipole.
+            let holds_skipped = (nd.start as usize..nd.end as usize).contains(&s);
+            if r2 > nd.open2 && !holds_skipped {
                 // Far enough by θ; also clear of contact with every ball in it?
                 let ex = (nd.lo.x - p.x).max(p.x - nd.hi.x).max(0.0);
                 let ey = (nd.lo.y - p.y).max(p.y - nd.hi.y).max(0.0);
