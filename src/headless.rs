@@ -226,12 +226,18 @@ pub(crate) fn finish_threaded(
         wall_seconds,
         steps_per_second: stats.ball_rate_median,
         balls: bodies.len(),
-        // Each ball thread sums the others' pull itself, directly (the tree is lockstep's).
+        // Attraction is summed as lockstep sums it, switched by the same rule: from the monitor's
+        // tree from TREE_MIN_BALLS balls on, directly below (the runtime's counters say which
+        // the ball cycles actually took).
         active_effects: scene
             .effects
             .active_names()
             .iter()
-            .map(|&s| if s == "attraction" { AttractionMethod::Direct.label() } else { s }.to_string())
+            .map(|&s| match (s, &params.effects.attraction) {
+                ("attraction", Some(att)) => AttractionMethod::choose(bodies.len(), att).label(),
+                _ => s,
+            })
+            .map(str::to_string)
             .collect(),
         start,
         end,

@@ -165,6 +165,19 @@ impl RunReport {
                 "messages     {} impulses sent, {} applied, {} deferred, {} dropped; {} threads panicked",
                 st.impulses_sent, st.impulses_applied, st.contacts_deferred, st.messages_dropped, st.threads_panicked
             );
+            if st.attraction_tree_cycles + st.attraction_direct_cycles > 0 || st.tree_builds > 0 {
+                let _ = writeln!(
+                    s,
+                    "attraction   {} ball cycles from the tree, {} direct; {} trees built ({:.0}/s, {:.0} µs each, {} skipped, {} in the pool)",
+                    st.attraction_tree_cycles,
+                    st.attraction_direct_cycles,
+                    st.tree_builds,
+                    st.tree_builds_per_second,
+                    st.tree_build_seconds * 1e6,
+                    st.tree_builds_skipped,
+                    st.tree_snapshots
+                );
+            }
             let _ = writeln!(
                 s,
                 "cost         {:.2} CPU s in {:.2} s ({:.2} cores); shutdown joined {} threads in {:.3} s",

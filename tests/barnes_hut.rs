@@ -420,9 +420,9 @@ fn force_at_a_balls_own_state_is_force_and_rate() {
     let r = field.radius();
     let mut tree = BarnesHut::new();
     tree.build(&field.pos, &field.mass, &r, &att);
-    for i in 0..field.pos.len() {
+    for (i, (&p, &m)) in field.pos.iter().zip(&field.mass).enumerate() {
         let (f, w2) = tree.force_and_rate(i);
-        let (g, v2) = tree.force_at(field.pos[i], field.mass[i], r[i], Some(i));
+        let (g, v2) = tree.force_at(p, m, r[i], Some(i));
         assert_eq!((f.x.to_bits(), f.y.to_bits()), (g.x.to_bits(), g.y.to_bits()), "ball {i}: {f} vs {g}");
         assert_eq!(w2.to_bits(), v2.to_bits(), "ball {i}: rate {w2} vs {v2}");
     }
@@ -440,9 +440,9 @@ fn force_at_with_theta_zero_is_the_direct_sum() {
     tree.build(&field.pos, &field.mass, &r, &att);
     let direct = |p: DVec2, m: f64, rad: f64, skip: Option<usize>| {
         let mut f = DVec2::ZERO;
-        for j in 0..field.pos.len() {
+        for (j, (&q, &mq)) in field.pos.iter().zip(&field.mass).enumerate() {
             if Some(j) != skip {
-                f += attraction_force(p, m, rad, field.pos[j], field.mass[j], r[j], &att);
+                f += attraction_force(p, m, rad, q, mq, r[j], &att);
             }
         }
         f

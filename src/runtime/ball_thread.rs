@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
+use super::attraction_tree::AttractionSnapshot;
 use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
@@ -42,6 +43,21 @@ struct BallState {
     applied: u64,
     updates: u64,
     walls: WallImpulses,
+    /// Cycles since the last flush that took attraction from the tree / read the table directly.
+    tree_cycles: u64,
+    direct_cycles: u64,
+}
+
+/// A ball adds its attraction cycle counts to the shared counters every this many updates (and
+/// when it pauses or stops): see `Shared::attraction_tree_cycles`.
+const COUNTER_FLUSH: u64 = 16;
+
+/// Where a cycle's attraction came from.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum AttractionSource {
+    Off,
+    Tree,
+    Direct,
 }
 
 impl BallState {
@@ -57,6 +73,24 @@ impl BallState {
             },
         );
     }
+
+    fn count(&mut self, source: AttractionSource) {
+        match source {
+            AttractionSource::Off => {}
+            AttractionSource::Tree => self.tree_cycles += 1,
+            AttractionSource::Direct => self.direct_cycles += 1,
+        }
+    }
+
+    fn flush_counts(&mut self, shared: &Shared) {
+        // Relaxed: statistics only.
+        if self.tree_cycles > 0 {
+            shared.attraction_tree_cycles.fetch_add(std::mem::take(&mut self.tree_cycles), Ordering::Relaxed);
+        }
+        if self.direct_cycles > 0 {
+            shared.attraction_direct_cycles.fetch_add(std::mem::take(&mut self.direct_cycles), Ordering::Relaxed);
+        }
+    }
 }
 
 enum Handled {
@@ -71,7 +105,16 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     background_scheduling();
     let cycle = shared.config.ball_cycle;
     let max_step = shared.config.max_step;
-    let mut state = BallState { ball, slot, pull: DVec2::ZERO, applied: 0, updates: 0, walls: WallImpulses::default() };
+    let mut state = BallState {
+        ball,
+        slot,
+        pull: DVec2::ZERO,
+        applied: 0,
+        updates: 0,
+        walls: WallImpulses::default(),
+        tree_cycles: 0,
+        direct_cycles: 0,
+    };
     let mut params: Params = shared.params.read().clone();
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
     // generation means the read lock below returns the parameters written before it.
@@ -90,12 +133,14 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
                     received = true;
                     if let Handled::Stop = handle(message, &mut state, &mut params) {
                         state.publish(&shared);
+                        state.flush_counts(&shared);
                         return;
                     }
                 }
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => {
                     state.publish(&shared);
+                    state.flush_counts(&shared);
                     return;
                 }
             }
@@ -119,6 +164,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         }
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
+            state.flush_counts(&shared);
             if received {
                 // Messages still land while paused (and the monitor sees them applied).
                 state.publish(&shared);
@@ -126,9 +172,13 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             continue;
         }
         let dt = elapsed.as_secs_f64() * params.time_scale;
-        advance(&mut state, dt, max_step, &params, &shared, &mut scratch, &mut others);
+        let source = advance(&mut state, dt, max_step, &params, &shared, &mut scratch, &mut others);
+        state.count(source);
         state.updates += 1;
         state.publish(&shared);
+        if state.updates.is_multiple_of(COUNTER_FLUSH) {
+            state.flush_counts(&shared);
+        }
     }
 }
 
@@ -240,7 +290,7 @@ fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handl
 }
 
 /// Advances the ball by `dt` seconds in sub-steps of at most `max_step`, so a stall (a dragged
-/// window, a loaded machine) never becomes one giant step.
+/// window, a loaded machine) never becomes one giant step. Returns where attraction came from.
 fn advance(
     state: &mut BallState,
     dt: f64,
@@ -249,38 +299,61 @@ fn advance(
     shared: &Shared,
     scratch: &mut IntegratorScratch,
     others: &mut Vec<BallRecord>,
-) {
+) -> AttractionSource {
     if dt <= 0.0 {
-        return;
+        return AttractionSource::Off;
     }
     let effects = &params.effects;
+    let slot = state.slot;
     let ball = &mut state.ball;
     let (mass, diameter) = (ball.mass, ball.diameter);
     let radius = 0.5 * diameter;
     let inv_mass = 1.0 / mass;
     let gravity = effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
     let uniform = gravity + state.pull * inv_mass;
-    // The other balls, frozen at their last published state for this cycle (attraction only).
-    others.clear();
-    if effects.attraction.is_some() {
-        let high = shared.high_water.load(Ordering::Acquire);
-        shared.table.read_all(high, others);
-        others.retain(|r| r.slot != state.slot);
-    }
     let drag = effects.drag;
     let attraction = effects.attraction;
+    // The other balls' pull, frozen for this whole cycle (every sub-step): either the monitor's
+    // latest tree snapshot, taken once here (from TREE_MIN_BALLS balls on; the field as the
+    // monitor read it at the start of its last pass), or below that the table read directly
+    // here (each ball as last published). Only this ball's own position moves through the
+    // sub-steps. The guard keeps the snapshot from being rebuilt until this cycle ends; it is
+    // dropped when `advance` returns, before the thread waits for its next cycle.
+    let guard;
+    let tree: Option<&AttractionSnapshot> = match &attraction {
+        Some(att) => {
+            // Lock-free: never waits for the monitor (see `attraction_tree.rs`).
+            guard = shared.attraction_tree.load();
+            // Built with other parameters (just changed): read directly this cycle.
+            guard.as_deref().filter(|t| t.attraction() == att)
+        }
+        None => None,
+    };
+    others.clear();
+    if attraction.is_some() && tree.is_none() {
+        // Acquire: pairs with the runtime's Release store after it wrote a new slot's record.
+        let high = shared.high_water.load(Ordering::Acquire);
+        shared.table.read_all(high, others);
+        others.retain(|r| r.slot != slot);
+    }
+    let source = match (&attraction, tree) {
+        (None, _) => AttractionSource::Off,
+        (Some(_), Some(_)) => AttractionSource::Tree,
+        (Some(_), None) => AttractionSource::Direct,
+    };
     let velocity_dependent = drag.is_some();
     // Sub-steps: at most `max_step` long, and short enough that drag is not stiff.
     let stiff = drag.map(|d| drag_rate(ball.velocity, diameter, mass, &d) * dt / MAX_DRAG_STEP).unwrap_or(0.0);
-    let orbit = match &attraction {
-        Some(att) => {
+    let orbit = match (&attraction, tree) {
+        (Some(_), Some(t)) => t.force_on(slot, ball.position, mass, radius).1.sqrt() * dt / MAX_ORBIT_STEP,
+        (Some(att), None) => {
             let w2 = others.iter().fold(0.0f64, |w, o| {
                 let ob = &o.ball;
                 w.max(attraction_rate_squared(ball.position, mass, radius, ob.position, ob.mass, ob.radius(), att))
             });
             w2.sqrt() * dt / MAX_ORBIT_STEP
         }
-        None => 0.0,
+        (None, _) => 0.0,
     };
     let steps = (dt / max_step).max(stiff).max(orbit).ceil().clamp(1.0, 4096.0);
     let h = dt / steps;
@@ -293,11 +366,13 @@ fn advance(
                 acc += drag_force(v[0], diameter, d) * inv_mass;
             }
             if let Some(att) = &attraction {
-                let mut f = DVec2::ZERO;
-                for o in others.iter() {
-                    let ob = &o.ball;
-                    f += attraction_force(x[0], mass, radius, ob.position, ob.mass, ob.radius(), att);
-                }
+                let f = match tree {
+                    Some(t) => t.force_on(slot, x[0], mass, radius).0,
+                    None => others.iter().fold(DVec2::ZERO, |f, o| {
+                        let ob = &o.ball;
+                        f + attraction_force(x[0], mass, radius, ob.position, ob.mass, ob.radius(), att)
+                    }),
+                };
                 acc += f * inv_mass;
             }
             a[0] = acc;
@@ -314,6 +389,7 @@ fn advance(
             &mut state.walls,
         );
     }
+    source
 }
 
 /// Ball threads are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not

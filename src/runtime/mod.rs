@@ -8,6 +8,7 @@
 //! theirs when the ball is removed or the runtime shuts down — the `Stop` message, not the
 //! channel closing, is what ends the thread, and closing is the fallback.
 
+mod attraction_tree;
 mod ball_thread;
 mod message;
 mod monitor;
@@ -104,6 +105,19 @@ pub struct RuntimeStats {
     pub messages_dropped: u64,
     pub threads_panicked: u64,
     pub panics: Vec<String>,
+    /// Attraction trees the monitor built and published (from `TREE_MIN_BALLS` balls on), per
+    /// second, and the mean wall time of one build (table snapshot to publication), s.
+    pub tree_builds: u64,
+    pub tree_builds_per_second: f64,
+    pub tree_build_seconds: f64,
+    /// Passes that built no tree because every pooled snapshot was still held by a ball.
+    pub tree_builds_skipped: u64,
+    /// Tree snapshots the monitor allocated (its pool).
+    pub tree_snapshots: usize,
+    /// Ball cycles with attraction on that took the force from the tree, and those that read the
+    /// table directly (each ball reports its counts every 16 cycles, so these may lag by that).
+    pub attraction_tree_cycles: u64,
+    pub attraction_direct_cycles: u64,
 }
 
 /// How a shutdown went.
@@ -459,6 +473,7 @@ impl Runtime {
         rates.sort_by(f64::total_cmp);
         let seconds = (now - self.started).as_secs_f64();
         let passes = self.shared.monitor_passes.load(Ordering::Relaxed);
+        let builds = self.shared.tree_builds.load(Ordering::Relaxed);
         RuntimeStats {
             balls: reg.balls.len(),
             seconds,
@@ -474,6 +489,13 @@ impl Runtime {
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
             threads_panicked: self.shared.panicked.load(Ordering::Relaxed),
             panics: reg.panics.clone(),
+            tree_builds: builds,
+            tree_builds_per_second: builds as f64 / seconds.max(1e-9),
+            tree_build_seconds: self.shared.tree_build_ns.load(Ordering::Relaxed) as f64 * 1e-9 / builds.max(1) as f64,
+            tree_builds_skipped: self.shared.tree_builds_skipped.load(Ordering::Relaxed),
+            tree_snapshots: self.shared.tree_snapshots.load(Ordering::Relaxed),
+            attraction_tree_cycles: self.shared.attraction_tree_cycles.load(Ordering::Relaxed),
+            attraction_direct_cycles: self.shared.attraction_direct_cycles.load(Ordering::Relaxed),
         }
     }
 

@@ -1,5 +1,7 @@
 //! The collision-monitor thread: reads the table, finds touching pairs, and sends each ball its
-//! share of the impulse and of the separation as messages. It never writes a ball's state.
+//! share of the impulse and of the separation as messages. With attraction on in a field of
+//! [`TREE_MIN_BALLS`] balls or more it also builds the field's Barnes–Hut tree from the same read
+//! and publishes it to the ball threads (`attraction_tree.rs`). It never writes a ball's state.
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -8,10 +10,11 @@ use std::time::Instant;
 use crossbeam_channel::Sender;
 use parking_lot::RwLock;
 
+use super::attraction_tree::TreePublisher;
 use super::message::Message;
 use super::shared::Shared;
 use super::table::BallRecord;
-use crate::physics::{BallId, Bodies, BroadPhase, ContactBody, contact_ball_ball};
+use crate::physics::{AttractionMethod, BallId, Bodies, BroadPhase, ContactBody, TREE_MIN_BALLS, contact_ball_ball};
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
 /// read (read lock) by the monitor for the whole sending part of a pass, so that once a removal
@@ -53,6 +56,7 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     let mut broad_phase = BroadPhase::new();
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     let mut sent: Vec<Sent> = vec![Sent::default(); shared.table.capacity()];
+    let mut trees = TreePublisher::default();
     // The parameters change rarely (panel, hotkeys): re-read them only when their generation
     // moved, as the ball threads do. Acquire pairs with the Release increment in
     // `Shared::update_params`: seeing a generation means the read lock returns what was written
@@ -70,9 +74,31 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
         }
         // Paused means everything stands still, contacts included (Relaxed: no data rides on it).
         let paused = shared.paused.load(Ordering::Relaxed);
-        if let (Some(collisions), false) = (params.effects.collisions, paused) {
-            let high = shared.high_water.load(Ordering::Acquire);
+        // Acquire: pairs with the runtime's Release store after it wrote a new slot's first record.
+        let high = shared.high_water.load(Ordering::Acquire);
+        // Attraction by tree needs at least TREE_MIN_BALLS balls, so fewer occupied slots than
+        // that rule it out without reading the table.
+        let attraction = params.effects.attraction.filter(|_| high >= TREE_MIN_BALLS);
+        if !paused && (params.effects.collisions.is_some() || attraction.is_some()) {
             shared.table.read_all(high, &mut records);
+        }
+        // The tree first: the balls get the fresher field sooner. Paused, the published tree
+        // stays (no ball advances).
+        match attraction {
+            _ if paused => {}
+            Some(att) if AttractionMethod::choose(records.len(), &att) == AttractionMethod::Tree => {
+                let t0 = Instant::now();
+                if trees.publish(&records, &att, &shared.attraction_tree) {
+                    shared.tree_builds.fetch_add(1, Ordering::Relaxed);
+                    shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                } else {
+                    shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+                }
+                shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
+            }
+            _ => trees.withdraw(&shared.attraction_tree),
+        }
+        if let (Some(collisions), false) = (params.effects.collisions, paused) {
             bodies.clear();
             for r in &records {
                 bodies.push(r.ball);

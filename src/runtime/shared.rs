@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use parking_lot::RwLock;
 
+use super::attraction_tree::PublishedTree;
 use super::table::BallTable;
 use crate::physics::{Effects, Field, Integrator};
 
@@ -71,6 +72,22 @@ pub(crate) struct Shared {
     pub contact_messages_sent: AtomicU64,
     pub contacts_deferred: AtomicU64,
     pub messages_dropped: AtomicU64,
+    /// The monitor's latest attraction tree, or none (see `attraction_tree.rs`: the monitor is
+    /// its only writer, the ball threads read it lock-free once per cycle).
+    pub attraction_tree: PublishedTree,
+    // Attraction statistics. Relaxed everywhere: plain counters, read only for reports.
+    /// Trees the monitor built and published, the wall time it spent on them (ns), the passes it
+    /// built none because every pooled snapshot was still held, and the snapshots it allocated.
+    pub tree_builds: AtomicU64,
+    pub tree_build_ns: AtomicU64,
+    pub tree_builds_skipped: AtomicU64,
+    pub tree_snapshots: AtomicUsize,
+    /// Ball cycles with attraction on that took the tree snapshot, and those that read the table
+    /// directly. Each ball adds its own count every `COUNTER_FLUSH` cycles (and when it pauses or
+    /// stops), not every cycle: a thousand threads adding to one shared word every cycle would
+    /// bounce its cache line between the cores at every update.
+    pub attraction_tree_cycles: AtomicU64,
+    pub attraction_direct_cycles: AtomicU64,
 }
 
 impl Shared {
@@ -90,6 +107,13 @@ impl Shared {
             contact_messages_sent: AtomicU64::new(0),
             contacts_deferred: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),
+            attraction_tree: PublishedTree::empty(),
+            tree_builds: AtomicU64::new(0),
+            tree_build_ns: AtomicU64::new(0),
+            tree_builds_skipped: AtomicU64::new(0),
+            tree_snapshots: AtomicUsize::new(0),
+            attraction_tree_cycles: AtomicU64::new(0),
+            attraction_direct_cycles: AtomicU64::new(0),
         }
     }
 
