@@ -9,7 +9,12 @@
 //! - `attraction/tree-clustered/10000` — the same count in ten dense clusters;
 //! - `attraction/opening-angle/θ` — the tree at 10,000 balls for θ from 0.3 to 0.9: the cost side
 //!   of the accuracy sweep in `tests/barnes_hut.rs` (`opening_angle_sweep`);
-//! - `attraction/tree-build/N` — the build alone at 10,000 and 100,000 balls.
+//! - `attraction/tree-build/N` — the build alone at 10,000 and 100,000 balls;
+//! - `attraction/force-at/N` and `attraction/near-force/N` — a threaded ball's queries: every
+//!   ball once, 1 cm from its entry in the tree and excluding it, at 256, 1,024 and 4,096 balls
+//!   (throughput per query): the whole walk (`BarnesHut::force_at`), and the exact sum over the
+//!   near balls of a cycle's split (`BarnesHut::near_force`), which is what a ball thread
+//!   computes at each sub-step — at least 500 a second (2 ms sub-steps).
 //!
 //! The field: balls of 1 m and 1 kg at random (fixed seed) in a square where they cover 20 % of
 //! the area (about 2 m apart, as in the step bench). The state does not move between iterations.
@@ -158,6 +163,49 @@ fn bench_attraction(c: &mut Criterion) {
                     for _ in 0..iters {
                         tree.build(&balls.pos, &balls.mass, &radius, &attraction);
                         black_box(tree.node_count());
+                    }
+                })
+            })
+        });
+    }
+    // The threaded runtime's queries, for a ball that has moved 1 cm since the snapshot,
+    // excluding its entry: the whole walk, and the near balls' exact sum a sub-step makes once a
+    // cycle's split (margin 0.1 m) is taken.
+    for n in [256, 1_024, 4_096] {
+        let balls = Balls::uniform(n);
+        let radius: Vec<f64> = balls.diameter.iter().map(|d| 0.5 * d).collect();
+        let mut tree = BarnesHut::new();
+        tree.build(&balls.pos, &balls.mass, &radius, &Attraction { g_constant: 1.0, opening_angle: theta });
+        let moved: Vec<(DVec2, f64, f64)> =
+            (0..n).map(|i| (balls.pos[i] + DVec2::new(0.01, 0.0), balls.mass[i], radius[i])).collect();
+        let near: Vec<Vec<u32>> = moved
+            .iter()
+            .enumerate()
+            .map(|(i, &(p, m, r))| {
+                let mut near = Vec::new();
+                tree.split_at(p, m, r, Some(i), 0.1, &mut near);
+                near
+            })
+            .collect();
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(BenchmarkId::new("force-at", n), |b| {
+            b.iter_custom(|iters| {
+                clock.time(|| {
+                    for _ in 0..iters {
+                        for (i, &(p, m, r)) in moved.iter().enumerate() {
+                            black_box(tree.force_at(p, m, r, Some(i)));
+                        }
+                    }
+                })
+            })
+        });
+        group.bench_function(BenchmarkId::new("near-force", n), |b| {
+            b.iter_custom(|iters| {
+                clock.time(|| {
+                    for _ in 0..iters {
+                        for (near, &(p, m, r)) in near.iter().zip(&moved) {
+                            black_box(tree.near_force(near, p, m, r));
+                        }
                     }
                 })
             })

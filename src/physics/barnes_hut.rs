@@ -306,7 +306,7 @@ impl BarnesHut {
     /// would orbit that node's whole mass M.
     pub fn force_and_rate(&self, i: usize) -> (DVec2, f64) {
         let s = self.slot[i] as usize;
-        self.walk(self.pos[s], self.mass[s], self.radius[s], self.inverse_mass[s], Some(s))
+        self.exact_at(self.pos[s], self.mass[s], self.radius[s], self.inverse_mass[s], Some(s))
     }
 
     /// The force (N) and the square of the fastest orbit rate (1/s², as in
@@ -321,21 +321,94 @@ impl BarnesHut {
     /// Panics if `exclude` is not a ball of the last build.
     pub fn force_at(&self, position: DVec2, mass: f64, radius: f64, exclude: Option<usize>) -> (DVec2, f64) {
         let s = exclude.map(|i| self.slot[i] as usize);
-        self.walk(position, mass, radius, 1.0 / mass, s)
+        self.exact_at(position, mass, radius, 1.0 / mass, s)
     }
 
-    /// The tree walk behind both queries: body at `p` with mass `m` (inverse `inv_m`) and radius
-    /// `r`; `skip` is the excluded ball's position in tree order.
+    /// The force on a body that will move up to `margin` from `position`, split in two, for
+    /// evaluating it many times along a short path (a threaded ball's sub-steps):
+    ///
+    /// - returned: the *far* force (N) — the nodes that are far by θ from `position` and clear of
+    ///   contact with every point within `margin` of it, each as its multipole at `position` —
+    ///   and the square of the fastest orbit rate (1/s²) at `position`, far nodes and near pairs
+    ///   included, as [`BarnesHut::force_at`] gives it;
+    /// - `near` (cleared first): the tree positions of the balls of every leaf that was opened,
+    ///   less `exclude`; [`BarnesHut::near_force`] sums them exactly at any point.
+    ///
+    /// `far + near_force(near, position, …)` is `force_at(position, …)` bit for bit when
+    /// `margin` is 0 (the same walk; a larger margin only opens more nodes). Elsewhere on the
+    /// path, the far force is that of the field where the path starts: each far node is at least
+    /// `margin` beyond any point of the path, so keeping its pull fixed errs by at most the
+    /// relative change of a pull over a step no longer than its distance.
+    pub fn split_at(
+        &self,
+        position: DVec2,
+        mass: f64,
+        radius: f64,
+        exclude: Option<usize>,
+        margin: f64,
+        near: &mut Vec<u32>,
+    ) -> (DVec2, f64) {
+        let skip = exclude.map(|i| self.slot[i] as usize);
+        let inv_m = 1.0 / mass;
+        let mut rate_near = 0.0f64;
+        near.clear();
+        let (far, rate_far) = self.walk(position, mass, radius, skip, margin, |t| {
+            near.push(t as u32);
+            let k = self.pair(position, mass, radius, t).1;
+            rate_near = rate_near.max(k * (inv_m + self.inverse_mass[t]));
+        });
+        (far, rate_near.max(rate_far))
+    }
+
+    /// The exact force (N) at `position` on a body of `mass` and `radius` from the balls `near`
+    /// (tree positions, from [`BarnesHut::split_at`]), summed in their order.
+    pub fn near_force(&self, near: &[u32], position: DVec2, mass: f64, radius: f64) -> DVec2 {
+        near.iter().fold(DVec2::ZERO, |f, &t| f + self.pair(position, mass, radius, t as usize).0)
+    }
+
+    /// Exactly `attraction_force` between a body and the ball at tree position `t`, and the pair's
+    /// stiffness (see [`attraction_pair`]).
     #[inline]
-    fn walk(&self, p: DVec2, m: f64, r: f64, inv_m: f64, skip: Option<usize>) -> (DVec2, f64) {
+    fn pair(&self, p: DVec2, m: f64, r: f64, t: usize) -> (DVec2, f64) {
+        attraction_pair(p, m, r, self.pos[t], self.mass[t], self.radius[t], &self.attraction)
+    }
+
+    /// The whole force and rate at `p`, leaves summed exactly as they are met.
+    #[inline]
+    fn exact_at(&self, p: DVec2, m: f64, r: f64, inv_m: f64, skip: Option<usize>) -> (DVec2, f64) {
+        let mut near = DVec2::ZERO;
+        let mut rate_near = 0.0f64;
+        let (far, rate_far) = self.walk(p, m, r, skip, 0.0, |t| {
+            // Exactly `attraction_force`, and the pair's ω² from its stiffness.
+            let (f, k) = self.pair(p, m, r, t);
+            near += f;
+            rate_near = rate_near.max(k * (inv_m + self.inverse_mass[t]));
+        });
+        (near + far, rate_near.max(rate_far))
+    }
+
+    /// The tree walk behind every query: a body at `p` with mass `m` and radius `r`; `skip` is
+    /// the excluded ball's position in tree order. Returns the far nodes' force (N) and their
+    /// largest orbit rate² (1/s²); hands every ball of every opened leaf (less `skip`) to
+    /// `leaf_ball`, in a fixed order. `margin` widens the contact test (0: as far as the body's
+    /// own radius).
+    #[inline]
+    fn walk(
+        &self,
+        p: DVec2,
+        m: f64,
+        r: f64,
+        skip: Option<usize>,
+        margin: f64,
+        mut leaf_ball: impl FnMut(usize),
+    ) -> (DVec2, f64) {
         // `usize::MAX` is in no node's range: nothing skipped.
         let s = skip.unwrap_or(usize::MAX);
-        let att = &self.attraction;
         let nodes = self.nodes.as_slice();
-        // Exact pairs as forces; far nodes as accelerations over G (one multiplication at the end).
-        let mut near = DVec2::ZERO;
+        // r + 0 is r: a zero margin changes no bit of the contact test.
+        let r = r + margin;
+        // Far nodes as accelerations over G (one multiplication at the end).
         let mut far = DVec2::ZERO;
-        let mut rate_near = 0.0f64;
         let mut rate_far = 0.0f64;
         let mut k = 0;
         while k < nodes.len() {
@@ -368,10 +441,7 @@ impl BarnesHut {
             if nd.leaf {
                 for t in nd.start as usize..nd.end as usize {
                     if t != s {
-                        // Exactly `attraction_force`, and the pair's ω² from its stiffness.
-                        let (f, k) = attraction_pair(p, m, r, self.pos[t], self.mass[t], self.radius[t], att);
-                        near += f;
-                        rate_near = rate_near.max(k * (inv_m + self.inverse_mass[t]));
+                        leaf_ball(t);
                     }
                 }
                 k = nd.next as usize;
@@ -379,8 +449,8 @@ impl BarnesHut {
                 k += 1;
             }
         }
-        let g = att.g_constant;
-        (near + far * (g * m), rate_near.max(g * rate_far))
+        let g = self.attraction.g_constant;
+        (far * (g * m), g * rate_far)
     }
 }
 

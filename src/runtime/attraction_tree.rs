@@ -77,14 +77,32 @@ impl AttractionSnapshot {
         self.tree.attraction()
     }
 
-    /// The attraction force (N) on the ball in table slot `slot`, of `mass` and `radius`, at
-    /// `position`, and the square of the fastest orbit rate it takes part in (1/s²): from every
-    /// ball of the snapshot but the slot's own entry. A ball added after the snapshot is not in
-    /// it (it excludes nothing, and pulls the others from the next pass on); a ball removed since
-    /// still pulls until the next pass.
-    pub(crate) fn force_on(&self, slot: usize, position: DVec2, mass: f64, radius: f64) -> (DVec2, f64) {
-        let own = self.tree_index.get(slot).copied().filter(|&i| i != NOT_IN_TREE);
-        self.tree.force_at(position, mass, radius, own.map(|i| i as usize))
+    /// The attraction on the ball in table slot `slot`, of `mass` and `radius`, from every ball of
+    /// the snapshot but the slot's own entry, split for a cycle of sub-steps
+    /// ([`BarnesHut::split_at`]): returns the far force (N) at the cycle's start `position`, for a
+    /// ball that may move up to `margin` in the cycle, and the orbit rate² there (1/s²); the near
+    /// balls go to `near`, for [`Self::near_force`] at each sub-step. A ball added after the
+    /// snapshot is not in it (it excludes nothing, and pulls the others from the next pass on);
+    /// a ball removed since still pulls until the next pass.
+    pub(crate) fn split_on(
+        &self,
+        slot: usize,
+        position: DVec2,
+        mass: f64,
+        radius: f64,
+        margin: f64,
+        near: &mut Vec<u32>,
+    ) -> (DVec2, f64) {
+        self.tree.split_at(position, mass, radius, self.own(slot), margin, near)
+    }
+
+    /// The near balls' exact pull at `position` (N).
+    pub(crate) fn near_force(&self, near: &[u32], position: DVec2, mass: f64, radius: f64) -> DVec2 {
+        self.tree.near_force(near, position, mass, radius)
+    }
+
+    fn own(&self, slot: usize) -> Option<usize> {
+        self.tree_index.get(slot).copied().filter(|&i| i != NOT_IN_TREE).map(|i| i as usize)
     }
 
     fn rebuild(&mut self, records: &[BallRecord], attraction: &Attraction) {
