@@ -25,7 +25,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use ballfield::physics::{Attraction, AttractionMethod, BarnesHut, BodyProps, Effects, Forces};
+use ballfield::physics::{Attraction, AttractionMethod, BarnesHut, BodyProps, Effects, Forces, NearBall, near_force};
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
 
@@ -174,11 +174,12 @@ fn bench_attraction(c: &mut Criterion) {
     for n in [256, 1_024, 4_096] {
         let balls = Balls::uniform(n);
         let radius: Vec<f64> = balls.diameter.iter().map(|d| 0.5 * d).collect();
+        let attraction = Attraction { g_constant: 1.0, opening_angle: theta };
         let mut tree = BarnesHut::new();
-        tree.build(&balls.pos, &balls.mass, &radius, &Attraction { g_constant: 1.0, opening_angle: theta });
+        tree.build(&balls.pos, &balls.mass, &radius, &attraction);
         let moved: Vec<(DVec2, f64, f64)> =
             (0..n).map(|i| (balls.pos[i] + DVec2::new(0.01, 0.0), balls.mass[i], radius[i])).collect();
-        let near: Vec<Vec<u32>> = moved
+        let near: Vec<Vec<NearBall>> = moved
             .iter()
             .enumerate()
             .map(|(i, &(p, m, r))| {
@@ -204,7 +205,7 @@ fn bench_attraction(c: &mut Criterion) {
                 clock.time(|| {
                     for _ in 0..iters {
                         for (near, &(p, m, r)) in near.iter().zip(&moved) {
-                            black_box(tree.near_force(near, p, m, r));
+                            black_box(near_force(near, p, m, r, &attraction));
                         }
                     }
                 })

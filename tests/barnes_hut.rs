@@ -4,7 +4,7 @@
 
 use ballfield::physics::{
     Attraction, AttractionMethod, BarnesHut, BodyProps, DEFAULT_OPENING_ANGLE, Effects, Forces, TREE_MIN_BALLS,
-    attraction_force,
+    attraction_force, near_force,
 };
 use glam::DVec2;
 
@@ -498,7 +498,7 @@ fn split_at_without_margin_is_force_at() {
         let p = p + DVec2::new(0.003, -0.002);
         let (f, w2) = tree.force_at(p, m, r[i], Some(i));
         let (far, v2) = tree.split_at(p, m, r[i], Some(i), 0.0, &mut near);
-        let g = far + tree.near_force(&near, p, m, r[i]);
+        let g = far + near_force(&near, p, m, r[i], &att);
         assert_eq!((f.x.to_bits(), f.y.to_bits()), (g.x.to_bits(), g.y.to_bits()), "ball {i}: {f} vs {g}");
         assert_eq!(w2.to_bits(), v2.to_bits(), "ball {i}");
     }
@@ -519,7 +519,7 @@ fn split_at_along_a_short_path_is_close_to_the_direct_sum() {
     for (i, (&p0, &m)) in field.pos.iter().zip(&field.mass).enumerate() {
         let (far, _) = tree.split_at(p0, m, r[i], Some(i), margin, &mut near);
         let p = p0 + DVec2::new(0.6, 0.8) * step;
-        let split = far + tree.near_force(&near, p, m, r[i]);
+        let split = far + near_force(&near, p, m, r[i], &att);
         let mut exact = DVec2::ZERO;
         for (j, (&q, &mq)) in field.pos.iter().zip(&field.mass).enumerate() {
             if j != i {

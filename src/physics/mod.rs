@@ -15,7 +15,7 @@ mod forces;
 mod integrator;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
-pub use barnes_hut::{BarnesHut, LEAF_SIZE};
+pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
 pub use contact::{

@@ -22,20 +22,24 @@
 //!
 //! **Orderings.** arc-swap's store publishes the pointer with release semantics after the tree
 //! was written through `Arc::get_mut`, and its load acquires it, so a ball that loads a snapshot
-//! sees the whole tree built before it. A ball drops its guard at the end of its cycle; `Arc`'s
-//! drop decrements with release and `Arc::get_mut` checks the count with acquire, so every read a
-//! ball made of a snapshot happens before the monitor rebuilds it. No ordering here is chosen by
+//! sees the whole tree built before it. A ball drops its guard as soon as it has split the force
+//! (one walk; the near balls are copied out); `Arc`'s drop decrements with release and
+//! `Arc::get_mut` checks the count with acquire, so every read a ball made of a snapshot happens
+//! before the monitor rebuilds it. No ordering here is chosen by
 //! hand: both halves are the crates' documented guarantees.
 //!
 //! **Time.** A snapshot is the table as the monitor read it at the start of a pass (each ball's
-//! record consistent, not one instant for all, as every table read). A ball uses the same
-//! snapshot for its whole cycle, every sub-step included: the other balls' field is frozen at the
-//! snapshot's time for that cycle, exactly as the direct read freezes it at the read's time. Only
-//! the ball's own position moves through the sub-steps. The snapshot is at most about one monitor
-//! period older than a direct read would be.
+//! record consistent, not one instant for all, as every table read). A ball takes the latest
+//! snapshot once per cycle and uses what it took for every sub-step of that cycle: the other
+//! balls' field is frozen at the snapshot's time for that cycle, exactly as the direct read
+//! freezes it at the read's time. Only the ball's own position moves through the sub-steps (the
+//! far part of the pull is kept from the cycle's start, the near balls are summed at each
+//! sub-step: see `ball_thread::advance`). The snapshot is about one monitor period older than a
+//! direct read would be.
 //!
-//! **Pool.** A ball that is preempted in mid-cycle keeps its snapshot until it runs again, so more
-//! than two may be in use at once; the monitor rebuilds whichever pooled snapshot nobody holds and
+//! **Pool.** A ball that is preempted in the middle of its walk keeps its snapshot until it runs
+//! again (with thousands of ball threads, that can be a while), so more than two may be in use at
+//! once; the monitor rebuilds whichever pooled snapshot nobody holds and
 //! allocates another only when every one is held, up to [`MAX_SNAPSHOTS`]. With all of them held,
 //! the pass builds nothing (counted as skipped) and the balls keep the last published tree. Once
 //! the pool has grown, a build allocates nothing (the tree reuses its memory).
@@ -46,7 +50,9 @@ use arc_swap::ArcSwapOption;
 use glam::DVec2;
 
 use super::table::BallRecord;
-use crate::physics::{Attraction, BarnesHut};
+#[cfg(doc)]
+use crate::physics::near_force;
+use crate::physics::{Attraction, BarnesHut, NearBall};
 #[cfg(doc)]
 use crate::physics::{AttractionMethod, TREE_MIN_BALLS};
 
@@ -81,7 +87,7 @@ impl AttractionSnapshot {
     /// the snapshot but the slot's own entry, split for a cycle of sub-steps
     /// ([`BarnesHut::split_at`]): returns the far force (N) at the cycle's start `position`, for a
     /// ball that may move up to `margin` in the cycle, and the orbit rate² there (1/s²); the near
-    /// balls go to `near`, for [`Self::near_force`] at each sub-step. A ball added after the
+    /// balls are copied to `near`, for [`near_force`] at each sub-step. A ball added after the
     /// snapshot is not in it (it excludes nothing, and pulls the others from the next pass on);
     /// a ball removed since still pulls until the next pass.
     pub(crate) fn split_on(
@@ -91,14 +97,9 @@ impl AttractionSnapshot {
         mass: f64,
         radius: f64,
         margin: f64,
-        near: &mut Vec<u32>,
+        near: &mut Vec<NearBall>,
     ) -> (DVec2, f64) {
         self.tree.split_at(position, mass, radius, self.own(slot), margin, near)
-    }
-
-    /// The near balls' exact pull at `position` (N).
-    pub(crate) fn near_force(&self, near: &[u32], position: DVec2, mass: f64, radius: f64) -> DVec2 {
-        self.tree.near_force(near, position, mass, radius)
     }
 
     fn own(&self, slot: usize) -> Option<usize> {

@@ -8,13 +8,12 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
-use super::attraction_tree::AttractionSnapshot;
 use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
-    Ball, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, WallImpulses, attraction_force, attraction_rate_squared,
-    contact_ball_wall, drag_force, drag_rate, integrate,
+    Ball, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, NearBall, WallImpulses, attraction_force,
+    attraction_rate_squared, contact_ball_wall, drag_force, drag_rate, integrate, near_force,
 };
 
 /// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
@@ -54,8 +53,8 @@ struct CycleScratch {
     integrator: IntegratorScratch,
     /// The other balls, read directly from the table (attraction below TREE_MIN_BALLS).
     others: Vec<BallRecord>,
-    /// The near balls of the tree snapshot (attraction from TREE_MIN_BALLS on).
-    near: Vec<u32>,
+    /// The near balls of the tree snapshot, copied (attraction from TREE_MIN_BALLS on).
+    near: Vec<NearBall>,
 }
 
 /// A ball adds its attraction cycle counts to the shared counters every this many updates (and
@@ -322,55 +321,61 @@ fn advance(
     let uniform = gravity + state.pull * inv_mass;
     let drag = effects.drag;
     let attraction = effects.attraction;
-    // The other balls' pull, frozen for this whole cycle (every sub-step): either the monitor's
-    // latest tree snapshot, taken once here (from TREE_MIN_BALLS balls on; the field as the
-    // monitor read it at the start of its last pass), or below that the table read directly
+    // The other balls' pull, frozen for this whole cycle (every sub-step): either taken from the
+    // monitor's latest tree snapshot, once here (from TREE_MIN_BALLS balls on; the field as the
+    // monitor read it at the start of its last pass), or below that from the table read directly
     // here (each ball as last published). Only this ball's own position moves through the
-    // sub-steps. The guard keeps the snapshot from being rebuilt until this cycle ends; it is
-    // dropped when `advance` returns, before the thread waits for its next cycle.
+    // sub-steps.
     //
-    // With the tree, the pull is also split once per cycle (`BarnesHut::split_at`): the far
-    // nodes' pull is taken at the cycle's start and kept for its sub-steps, and only the near
-    // balls (those of the leaves the walk opened) are summed exactly at each sub-step. A tree walk
-    // per sub-step would cost n × 500 walks a second at the 2 ms sub-step limit — more than two
-    // cores at 4,096 balls. The far nodes lie beyond twice the distance the ball can travel in
-    // the cycle, so keeping their pull fixed errs about as much as freezing the other balls does.
-    let guard;
-    let tree: Option<&AttractionSnapshot> = match &attraction {
-        Some(att) => {
-            // Lock-free: never waits for the monitor (see `attraction_tree.rs`).
-            guard = shared.attraction_tree.load();
-            // Built with other parameters (just changed): read directly this cycle.
-            guard.as_deref().filter(|t| t.attraction() == att)
-        }
-        None => None,
-    };
+    // With the tree, the pull is split once per cycle (`BarnesHut::split_at`): the far nodes'
+    // pull is taken at the cycle's start and kept for its sub-steps, and only the near balls
+    // (those of the leaves the walk opened, copied out) are summed exactly at each sub-step. A
+    // tree walk per sub-step would cost n × 500 walks a second at the 2 ms sub-step limit — more
+    // than two cores at 4,096 balls. The far nodes lie beyond twice the distance the ball can
+    // travel in the cycle, so keeping their pull fixed errs about as much as freezing the other
+    // balls does. Because the near balls are copied, the snapshot is held only for the split
+    // (one walk), not for the cycle: a ball preempted in mid-cycle keeps no snapshot from being
+    // rebuilt.
     others.clear();
-    if attraction.is_some() && tree.is_none() {
-        // Acquire: pairs with the runtime's Release store after it wrote a new slot's record.
-        let high = shared.high_water.load(Ordering::Acquire);
-        shared.table.read_all(high, others);
-        others.retain(|r| r.slot != slot);
-    }
-    let source = match (&attraction, tree) {
-        (None, _) => AttractionSource::Off,
-        (Some(_), Some(_)) => AttractionSource::Tree,
-        (Some(_), None) => AttractionSource::Direct,
+    let mut far = DVec2::ZERO;
+    let mut tree_rate2 = 0.0;
+    let source = match &attraction {
+        None => AttractionSource::Off,
+        Some(att) => {
+            // How far the ball can go this cycle from its speed and the uniform forces (the pull
+            // of the near balls, summed exactly at every sub-step, needs no margin).
+            let travel = ball.velocity.length() * dt + 0.5 * uniform.length() * dt * dt;
+            // Lock-free: never waits for the monitor (see `attraction_tree.rs`). The guard is a
+            // temporary, dropped at the end of this statement. A snapshot built with other
+            // parameters (just changed) is not used: the table is read directly this cycle.
+            let split = shared
+                .attraction_tree
+                .load()
+                .as_deref()
+                .filter(|t| t.attraction() == att)
+                .map(|t| t.split_on(slot, ball.position, mass, radius, 2.0 * travel, near));
+            match split {
+                Some((f, w2)) => {
+                    (far, tree_rate2) = (f, w2);
+                    AttractionSource::Tree
+                }
+                None => {
+                    // Acquire: pairs with the runtime's Release store after it wrote a new
+                    // slot's record.
+                    let high = shared.high_water.load(Ordering::Acquire);
+                    shared.table.read_all(high, others);
+                    others.retain(|r| r.slot != slot);
+                    AttractionSource::Direct
+                }
+            }
+        }
     };
     let velocity_dependent = drag.is_some();
     // Sub-steps: at most `max_step` long, and short enough that drag is not stiff.
     let stiff = drag.map(|d| drag_rate(ball.velocity, diameter, mass, &d) * dt / MAX_DRAG_STEP).unwrap_or(0.0);
-    let mut far = DVec2::ZERO;
-    let orbit = match (&attraction, tree) {
-        (Some(_), Some(t)) => {
-            // How far the ball can go this cycle from its speed and the uniform forces (the pull
-            // of the near balls, summed exactly, needs no margin).
-            let travel = ball.velocity.length() * dt + 0.5 * uniform.length() * dt * dt;
-            let (f, w2) = t.split_on(slot, ball.position, mass, radius, 2.0 * travel, near);
-            far = f;
-            w2.sqrt() * dt / MAX_ORBIT_STEP
-        }
-        (Some(att), None) => {
+    let orbit = match (&attraction, source) {
+        (Some(_), AttractionSource::Tree) => tree_rate2.sqrt() * dt / MAX_ORBIT_STEP,
+        (Some(att), _) => {
             let w2 = others.iter().fold(0.0f64, |w, o| {
                 let ob = &o.ball;
                 w.max(attraction_rate_squared(ball.position, mass, radius, ob.position, ob.mass, ob.radius(), att))
@@ -390,9 +395,9 @@ fn advance(
                 acc += drag_force(v[0], diameter, d) * inv_mass;
             }
             if let Some(att) = &attraction {
-                let f = match tree {
-                    Some(t) => far + t.near_force(near, x[0], mass, radius),
-                    None => others.iter().fold(DVec2::ZERO, |f, o| {
+                let f = match source {
+                    AttractionSource::Tree => far + near_force(near, x[0], mass, radius, att),
+                    _ => others.iter().fold(DVec2::ZERO, |f, o| {
                         let ob = &o.ball;
                         f + attraction_force(x[0], mass, radius, ob.position, ob.mass, ob.radius(), att)
                     }),
