@@ -87,14 +87,17 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
         match attraction {
             _ if paused => {}
             Some(att) if AttractionMethod::choose(records.len(), &att) == AttractionMethod::Tree => {
-                let t0 = Instant::now();
-                if trees.publish(&records, &att, &shared.attraction_tree) {
-                    shared.tree_builds.fetch_add(1, Ordering::Relaxed);
-                    shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
-                } else {
-                    shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+                // Rebuilt once the balls have moved on since the last build (see `is_fresh`).
+                if !trees.is_fresh(&records, &att) {
+                    let t0 = Instant::now();
+                    if trees.publish(&records, &att, &shared.attraction_tree) {
+                        shared.tree_builds.fetch_add(1, Ordering::Relaxed);
+                        shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                    } else {
+                        shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+                    }
+                    shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
                 }
-                shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
             }
             _ => trees.withdraw(&shared.attraction_tree),
         }
