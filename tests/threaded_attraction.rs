@@ -227,3 +227,25 @@ attraction = { g-constant = 1.0 }
     check_finite_and_inside(&rt);
     rt.shutdown();
 }
+
+/// New attraction parameters reach the balls through a new tree: a ball whose snapshot was built
+/// with the old ones reads the table directly meanwhile, and soon all are back on the tree.
+#[test]
+fn new_parameters_get_a_new_tree() {
+    let _serial = serial();
+    let rt = Runtime::start(&gas(TREE_MIN_BALLS + 72, false), RuntimeConfig::default()).unwrap();
+    assert!(wait_until(Duration::from_secs(5), || rt.stats().tree_builds > 20), "no tree built");
+    let mut effects = rt.params().effects;
+    effects.attraction.as_mut().unwrap().g_constant = 2.0;
+    rt.set_effects(effects);
+    std::thread::sleep(Duration::from_millis(200));
+    let before = paused_stats(&rt);
+    rt.resume();
+    std::thread::sleep(Duration::from_millis(300));
+    let after = paused_stats(&rt);
+    let tree = after.attraction_tree_cycles - before.attraction_tree_cycles;
+    let direct = after.attraction_direct_cycles - before.attraction_direct_cycles;
+    assert!(tree > 10 * direct.max(1), "after the change: tree {tree}, direct {direct} ball cycles");
+    check_finite_and_inside(&rt);
+    rt.shutdown();
+}
