@@ -168,6 +168,17 @@ pub fn drag_rate_bound(velocity: DVec2, acceleration: DVec2, diameter: f64, mass
     }
 }
 
+/// `a`, the drag acceleration of a ball moving at `v`, with its rate `|a|/|v|` capped at `limit`
+/// (1/s): the engines' guard rail for drag too stiff for their shortest step (see
+/// `Forces::set_drag_rate_limit`). An explicit stage of length h ≤ 1/limit can then stop the ball
+/// but never throw it back faster.
+#[inline]
+pub fn cap_drag_rate(a: DVec2, v: DVec2, limit: f64) -> DVec2 {
+    let cap = limit * v.length();
+    let a2 = a.length_squared();
+    if a2 > cap * cap { a * (cap / a2.sqrt()) } else { a }
+}
+
 /// The square of the angular frequency at which a pair of attracting balls would orbit (or, when
 /// they overlap, oscillate through each other), `G·(ma + mb)/max(r, R)³`, 1/s². An explicit step h
 /// resolves that motion only while `ω·h` is small; the engines split their steps to keep it at

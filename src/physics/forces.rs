@@ -6,7 +6,7 @@
 use glam::DVec2;
 
 use super::barnes_hut::BarnesHut;
-use super::effects::{Attraction, Drag, Effects, attraction_pair, drag_force, drag_rate};
+use super::effects::{Attraction, Drag, Effects, attraction_pair, cap_drag_rate, drag_force, drag_rate};
 
 /// Per-ball constants that forces need, as parallel slices indexed like the state.
 #[derive(Clone, Copy, Debug)]
@@ -329,9 +329,7 @@ fn local_pass(pass: ForcePass, drag_rate_limit: f64, props: BodyProps<'_>, vel: 
             // The guard rail (see `Forces::set_drag_rate_limit`): |a| ≤ limit·|v|.
             for i in 0..acc.len() {
                 let a = drag_force(vel[i], props.diameter[i], &drag) * props.inverse_mass[i];
-                let cap = drag_rate_limit * vel[i].length();
-                let a2 = a.length_squared();
-                acc[i] += if a2 > cap * cap { a * (cap / a2.sqrt()) } else { a };
+                acc[i] += cap_drag_rate(a, vel[i], drag_rate_limit);
             }
         }
         ForcePass::Drag(drag) => {

@@ -11,9 +11,10 @@ use glam::DVec2;
 use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
+use crate::lockstep::MAX_SUBSTEPS;
 use crate::physics::{
-    Ball, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, NearBall, WallImpulses, attraction_force,
-    attraction_rate_squared, contact_ball_wall, drag_force, drag_rate, integrate, near_force,
+    Ball, BallKind, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, NearBall, WallImpulses, attraction_force,
+    attraction_rate_squared, cap_drag_rate, contact_ball_wall, drag_force, drag_rate_bound, integrate, near_force,
 };
 
 /// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
@@ -111,7 +112,12 @@ enum Handled {
 /// table at `slot` (written by the runtime before this thread started).
 pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Receiver<Message>) {
     let _guard = PanicGuard { shared: &shared, slot };
-    background_scheduling();
+    // The key ball is the one the player steers and watches: it keeps the ordinary policy, so its
+    // updates (the pull's answer) never wait behind the crowd or another program's load. One
+    // thread more at the ordinary policy costs the window nothing measurable.
+    if ball.kind != BallKind::Key {
+        background_scheduling();
+    }
     let cycle = shared.config.ball_cycle;
     let max_step = shared.config.max_step;
     let mut state = BallState {
@@ -371,8 +377,23 @@ fn advance(
         }
     };
     let velocity_dependent = drag.is_some();
-    // Sub-steps: at most `max_step` long, and short enough that drag is not stiff.
-    let stiff = drag.map(|d| drag_rate(ball.velocity, diameter, mass, &d) * dt / MAX_DRAG_STEP).unwrap_or(0.0);
+    // The other balls' pull on this one now (for the drag's stiffness below).
+    let pull_of_others = |x: DVec2| match (&attraction, source) {
+        (Some(att), AttractionSource::Tree) => far + near_force(near, x, mass, radius, att),
+        (Some(att), _) => others.iter().fold(DVec2::ZERO, |f, o| {
+            let ob = &o.ball;
+            f + attraction_force(x, mass, radius, ob.position, ob.mass, ob.radius(), att)
+        }),
+        (None, _) => DVec2::ZERO,
+    };
+    // Sub-steps: at most `max_step` long, and short enough that drag is not stiff — at the speed
+    // the ball has now, or at the terminal speed the other forces drive it to within the cycle
+    // (`drag_rate_bound`; see the lockstep engine's split, which judges it the same way).
+    let drag_rate_now = drag.map_or(0.0, |d| {
+        let a = uniform + pull_of_others(ball.position) * inv_mass;
+        drag_rate_bound(ball.velocity, a, diameter, mass, &d)
+    });
+    let stiff = drag_rate_now * dt / MAX_DRAG_STEP;
     let orbit = match (&attraction, source) {
         (Some(_), AttractionSource::Tree) => tree_rate2.sqrt() * dt / MAX_ORBIT_STEP,
         (Some(att), _) => {
@@ -384,25 +405,21 @@ fn advance(
         }
         (None, _) => 0.0,
     };
-    let steps = (dt / max_step).max(stiff).max(orbit).ceil().clamp(1.0, 4096.0);
+    let steps = (dt / max_step).max(stiff).max(orbit).ceil().clamp(1.0, MAX_SUBSTEPS as f64);
     let h = dt / steps;
+    // Drag still too stiff for the shortest sub-step gets the lockstep engine's guard rail: its
+    // rate capped at 1/h (see `Forces::set_drag_rate_limit`).
+    let drag_limit = if drag_rate_now * h > MAX_DRAG_STEP { 1.0 / h } else { f64::INFINITY };
     for _ in 0..steps as u64 {
         let mut x = [ball.position];
         let mut v = [ball.velocity];
         integrate(params.integrator, h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
             let mut acc = uniform;
             if let Some(d) = &drag {
-                acc += drag_force(v[0], diameter, d) * inv_mass;
+                acc += cap_drag_rate(drag_force(v[0], diameter, d) * inv_mass, v[0], drag_limit);
             }
-            if let Some(att) = &attraction {
-                let f = match source {
-                    AttractionSource::Tree => far + near_force(near, x[0], mass, radius, att),
-                    _ => others.iter().fold(DVec2::ZERO, |f, o| {
-                        let ob = &o.ball;
-                        f + attraction_force(x[0], mass, radius, ob.position, ob.mass, ob.radius(), att)
-                    }),
-                };
-                acc += f * inv_mass;
+            if attraction.is_some() {
+                acc += pull_of_others(x[0]) * inv_mass;
             }
             a[0] = acc;
         });
@@ -421,7 +438,7 @@ fn advance(
     source
 }
 
-/// Ball threads are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not
+/// Ball threads (all but the key ball) are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not
 /// use. With hundreds of them runnable on two cores, any ordinary policy lets their sheer number
 /// outweigh the monitor, the render loop, Mesa's threads and the X server, and the window falls
 /// far behind its 15 ms cadence (measured: 1.8 frames/s at 500 balls with SCHED_BATCH at nice +5).
