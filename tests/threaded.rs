@@ -278,3 +278,68 @@ fn a_stalled_ball_sub_steps_its_long_dt() {
     assert!(rt.wall_impulses().bottom > 0.0, "it bounced");
     assert!((end - start).abs() < 1e-3 * start, "energy {start} -> {end}");
 }
+
+/// The lockstep engine's fuzz finding (tests/fuzz.rs, seed 12) on this runtime: a 1.6 g ball of
+/// 2.2 m with a 2e5 kg grain passing inside it (G = 1), under drag, is pulled hard enough that
+/// its drag turns stiff within a cycle. Its thread judges its sub-steps by the drag rate at the
+/// terminal speed the grain drives it to, as the lockstep split does; a 0.3 s stall on it makes
+/// the cycle long (the sub-step floor). Nothing becomes NaN, nothing leaves the field.
+#[test]
+fn a_light_ball_pulled_hard_into_its_drag_stays_finite() {
+    let _serial = serial();
+    let s = scene(
+        "name = \"pulled-into-drag\"\n[field]\nwidth = 20.0\nheight = 10.0\nrestitution = 0.0\n\
+         [simulation]\nintegrator = \"yoshida4\"\n[effects]\ngravity = {}\ndrag = {}\nattraction = { g-constant = 1.0 }\n",
+    );
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    let rows = [
+        (
+            7.059324430865294,
+            5.989446160235999,
+            172.58317190949356,
+            -207.20719717756145,
+            28.675137913826017,
+            0.273960105834647,
+        ),
+        (
+            12.875145798562006,
+            5.038438580992614,
+            -12.52064583385878,
+            -252.02413668337556,
+            208396.70201951882,
+            0.0015028692559669386,
+        ),
+        (
+            16.189124680615766,
+            7.014978389554498,
+            51.73733967008698,
+            -10.924901360025366,
+            172948.510085571,
+            0.8913997411471628,
+        ),
+        (13.763962743160123, 1.205493956857447, 287.37145920317283, 0.0, 0.0016165245376088056, 2.1941680547019975),
+        (0.5, 0.5, 0.0, 0.0, 11614.631797359905, 1.0),
+    ];
+    let mut light = None;
+    for (x, y, vx, vy, mass, diameter) in rows {
+        let ball = Ball {
+            id: BallId(0),
+            kind: BallKind::Ball,
+            position: DVec2::new(x, y),
+            velocity: DVec2::new(vx, vy),
+            mass,
+            diameter,
+        };
+        let id = rt.add_ball(ball).unwrap();
+        if mass < 0.01 {
+            light = Some(id);
+        }
+    }
+    rt.inject_stall(light.unwrap(), Duration::from_millis(300)).unwrap();
+    std::thread::sleep(Duration::from_millis(800));
+    settle(&rt);
+    let balls: Vec<Ball> = rt.snapshot().iter().map(|r| r.ball).collect();
+    assert_eq!(balls.len(), rows.len());
+    assert!(balls.iter().all(|b| b.position.is_finite() && b.velocity.is_finite()), "{balls:?}");
+    check_inside(&s.field, &balls);
+}

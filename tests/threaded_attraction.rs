@@ -159,7 +159,7 @@ fn the_report_names_the_tree_and_its_figures() {
 /// rest under a constant acceleration, `a = v²/(2·Δx)` whatever the time, and leapfrog (drift, kick,
 /// drift) keeps that exact for any steps. The field is nearly constant: the cluster's balls all
 /// overlap, so they pull one another with the linear interior force and only oscillate about
-/// their fixed centre of mass (the probe, 1 g, moves it by nothing measurable), and the probe moves
+/// their nearly fixed centre of mass (the probe, 1 g, moves it by nothing measurable), and the probe moves
 /// a few centimetres of its 20 m.
 #[test]
 fn a_distant_cluster_pulls_a_ball_as_newton_says() {
@@ -212,7 +212,11 @@ attraction = { g-constant = 1.0 }
     let m_cluster: f64 = records.iter().filter(|r| r.ball.id != probe.id).map(|r| r.ball.mass).sum();
     let com = records.iter().filter(|r| r.ball.id != probe.id).map(|r| r.ball.mass * r.ball.position).sum::<DVec2>()
         / m_cluster;
-    assert!(com.distance(centre) < 0.01, "the cluster's centre of mass moved to {com}");
+    // Each ball pulls the others from the state they last published, so pairs are not summed at
+    // one instant and the cluster's momentum is kept only to that lag: under load (a ball thread
+    // waiting tens of ms for its turn) the centre of mass drifted up to 5 cm in 0.7 s (measured,
+    // one core busy). A drift of 0.1 m changes the pull 20 m away by 1 % — inside the 3 % below.
+    assert!(com.distance(centre) < 0.1, "the cluster's centre of mass moved to {com}");
     let dx = probe.position - start;
     let v = probe.velocity;
     let toward = (centre - start).normalize();
