@@ -146,6 +146,9 @@ pub struct Lockstep {
     split_speeds: Option<SplitSpeeds>,
     /// The drag rate the last split was judged by (see [`Lockstep::substeps_needed`]), 1/s.
     drag_rate: f64,
+    /// The balls' largest quadratic drag rate at 1 m/s (`largest_drag_c`): fixed while the balls
+    /// and effects are; `None` when it must be found afresh.
+    drag_c: Option<f64>,
     /// The chunks' tallies of the last chunked pass (kept to reuse the memory).
     tallies: Vec<ChunkTally>,
     threads: usize,
@@ -196,6 +199,7 @@ impl Lockstep {
             adaptive_substeps: true,
             split_speeds: None,
             drag_rate: 0.0,
+            drag_c: None,
             tallies: Vec::new(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             pool: None,
@@ -253,6 +257,7 @@ impl Lockstep {
         self.forces = Forces::new(&effects);
         self.grid_stale = true;
         self.split_speeds = None;
+        self.drag_c = None;
     }
 
     /// Turns the automatic step splitting (fast balls, stiff drag, fast orbits; see
@@ -328,6 +333,7 @@ impl Lockstep {
         self.bodies.push(ball);
         self.grid_stale = true;
         self.split_speeds = None;
+        self.drag_c = None;
         self.forces.forget_orbit_rate();
         Ok(ball.id)
     }
@@ -336,6 +342,7 @@ impl Lockstep {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.grid_stale = true;
         self.split_speeds = None;
+        self.drag_c = None;
         self.forces.forget_orbit_rate();
         Ok(self.bodies.remove(index))
     }
@@ -345,6 +352,7 @@ impl Lockstep {
         let index = (0..self.bodies.len()).rev().find(|&i| self.bodies.kind[i] != BallKind::Key)?;
         self.grid_stale = true;
         self.split_speeds = None;
+        self.drag_c = None;
         self.forces.forget_orbit_rate();
         Some(self.bodies.remove(index))
     }
@@ -427,7 +435,8 @@ impl Lockstep {
             // `drag_rate_bound`; the largest is that of the ball with the largest `c`), and the
             // key ball's under gravity and the pull.
             let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-            let mut rate = speeds.drag_rate.max((gravity.length() * speeds.drag_c).sqrt());
+            let c = *self.drag_c.get_or_insert_with(|| largest_drag_c(drag, &b.diameter, &b.mass));
+            let mut rate = speeds.drag_rate.max((gravity.length() * c).sqrt());
             if let Some(k) = b.key_index().filter(|_| self.pull != DVec2::ZERO) {
                 let a = gravity + self.pull * b.inverse_mass[k];
                 rate = rate.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
@@ -623,7 +632,6 @@ impl Lockstep {
         for t in &self.tallies {
             speeds.travel2 = speeds.travel2.max(t.speeds.travel2);
             speeds.drag_rate = speeds.drag_rate.max(t.speeds.drag_rate);
-            speeds.drag_c = speeds.drag_c.max(t.speeds.drag_c);
             self.counters.speed_limited += t.speed_limited;
         }
         self.split_speeds = Some(speeds);
@@ -722,8 +730,6 @@ pub fn state_hash(b: &Bodies) -> u64 {
 struct SplitSpeeds {
     travel2: f64,
     drag_rate: f64,
-    /// Largest quadratic drag rate at 1 m/s (`c`, 1/m; 0 for linear drag).
-    drag_c: f64,
 }
 
 impl SplitSpeeds {
@@ -743,12 +749,19 @@ impl SplitSpeeds {
         if let Some(drag) = drag {
             let rates = v.iter().zip(diameter).zip(mass);
             speeds.drag_rate = rates.fold(0.0, |w, ((v, d), m)| w.max(drag_rate(*v, *d, *m, drag)));
-            if let Drag::Quadratic { .. } = drag {
-                let c = diameter.iter().zip(mass);
-                speeds.drag_c = c.fold(0.0, |w, (d, m)| w.max(drag_rate(DVec2::X, *d, *m, drag)));
-            }
         }
         speeds
+    }
+}
+
+/// The largest quadratic drag rate at 1 m/s among the balls (`c`, 1/m; 0 for linear drag, whose
+/// rate does not grow with speed).
+fn largest_drag_c(drag: &Drag, diameter: &[f64], mass: &[f64]) -> f64 {
+    match drag {
+        Drag::Quadratic { .. } => {
+            diameter.iter().zip(mass).fold(0.0, |w, (d, m)| w.max(drag_rate(DVec2::X, *d, *m, drag)))
+        }
+        Drag::Linear { .. } => 0.0,
     }
 }
 
@@ -779,6 +792,11 @@ impl WallPass<'_> {
     /// Ball `i`, at `x` with `v`, against the walls; its impulses and contact go into `tally`.
     #[inline(always)]
     fn bounce(&self, i: usize, x: &mut DVec2, v: &mut DVec2, tally: &mut ChunkTally) {
+        // Strictly inside: `contact_ball_wall` would do nothing (most balls, most sub-steps).
+        let r = self.radius[i];
+        if x.x > r && x.x < self.field.width - r && x.y > r && x.y < self.field.height - r {
+            return;
+        }
         // The ball's uniform acceleration during the step, for an exact bounce.
         let acceleration =
             if Some(i) == self.key { self.gravity + self.pull * self.inverse_mass[i] } else { self.gravity };
