@@ -2,6 +2,8 @@
 //! Scene parsing never panics and every refusal names the file; random fields never produce NaN,
 //! never lose a ball through a wall and never panic.
 
+mod common;
+
 use ballfield::Lockstep;
 use ballfield::physics::{Attraction, Ball, BallId, BallKind, Collisions, Drag, Effects, Field, Gravity, Integrator};
 use ballfield::scene::{Origin, Scene};
@@ -155,18 +157,8 @@ proptest! {
 /// under Yoshida's method, gravity, quadratic drag and attraction with G = 1: the shape of both
 /// findings below.
 fn fuzz_finding(rows: &[(f64, f64, f64, f64, f64, f64)], collisions: Option<f64>, walls: f64) -> Lockstep {
-    let balls: Vec<Ball> = rows
-        .iter()
-        .enumerate()
-        .map(|(i, &(x, y, vx, vy, mass, diameter))| Ball {
-            id: BallId(i as u32),
-            kind: BallKind::Ball,
-            position: DVec2::new(x, y),
-            velocity: DVec2::new(vx, vy),
-            mass,
-            diameter,
-        })
-        .collect();
+    let balls: Vec<Ball> =
+        rows.iter().enumerate().map(|(i, &(x, y, vx, vy, m, d))| common::ball(i as u32, x, y, vx, vy, m, d)).collect();
     let field = Field { width: 20.0, height: 10.0, restitution: walls };
     let effects = Effects {
         gravity: Some(Gravity::default()),

@@ -1,6 +1,8 @@
 //! The threaded runtime: invariants, not exact bits. Every ball on its own thread, a lock-free
 //! table, a collision monitor sending impulses as messages.
 
+mod common;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -322,15 +324,7 @@ fn a_light_ball_pulled_hard_into_its_drag_stays_finite() {
     ];
     let mut light = None;
     for (x, y, vx, vy, mass, diameter) in rows {
-        let ball = Ball {
-            id: BallId(0),
-            kind: BallKind::Ball,
-            position: DVec2::new(x, y),
-            velocity: DVec2::new(vx, vy),
-            mass,
-            diameter,
-        };
-        let id = rt.add_ball(ball).unwrap();
+        let id = rt.add_ball(common::ball(0, x, y, vx, vy, mass, diameter)).unwrap();
         if mass < 0.01 {
             light = Some(id);
         }
