@@ -10,33 +10,16 @@ cd "$(dirname "$0")/.."
 steps=${1:-1000}
 shift || true
 counts=("${@:-1000 10000 100000}")
-cargo build --release --quiet
-bin="${CARGO_TARGET_DIR:-target}/release/ballfield"
+source scripts/lib.sh
+ballfield_bin
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 echo "| balls | threads | steps/s | µs per step | memory per ball (peak RSS) |"
 echo "|---:|---:|---:|---:|---:|"
 for n in ${counts[@]}; do
-  read -r width height < <(python3 -c "import math; a=$n*math.pi/0.2; w=math.sqrt(a*1.6); print(f'{w:.3f} {a/w:.3f}')")
-  cat > "$dir/rain$n.toml" <<TOML
-name = "rain-$n"
-[field]
-width = $width
-height = $height
-[simulation]
-max-balls = $n
-[effects]
-collisions = {}
+  lattice_scene "$dir/rain$n.toml" "rain-$n" "$n" 'collisions = {}
 gravity = { g = [0.0, -9.81] }
-drag = { model = "quadratic", rho = 1.225, cd = 0.47 }
-[[generate]]
-count = $n
-diameter = 2.0
-mass = 1.0
-speed = 5.0
-layout = "lattice"
-gap = 1.0
-TOML
+drag = { model = "quadratic", rho = 1.225, cd = 0.47 }'
   for threads in 1 2; do
     "$bin" --scene "$dir/rain$n.toml" headless --steps "$steps" --threads "$threads" --report "$dir/r$n-$threads.json" -q
     python3 - "$dir/r$n-$threads.json" <<'PY'

@@ -22,12 +22,8 @@ fi
 secs=${1:-5}
 shift || true
 counts=("${@:-64 256 1024 4096}")
-if [ -n "${BALLFIELD_BIN:-}" ]; then
-  bin=$BALLFIELD_BIN
-else
-  cargo build --release --quiet
-  bin="${CARGO_TARGET_DIR:-target}/release/ballfield"
-fi
+source scripts/lib.sh
+ballfield_bin
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 if [ -n "$attraction" ]; then

@@ -13,8 +13,8 @@ cd "$(dirname "$0")/.."
 seconds=${1:-10}
 shift || true
 counts=("${@:-100000}")
-cargo build --release --quiet
-bin="${CARGO_TARGET_DIR:-target}/release/ballfield"
+source scripts/lib.sh
+ballfield_bin
 dir=$(mktemp -d)
 export XDG_RUNTIME_DIR="$dir/xdg"
 mkdir -m 700 "$XDG_RUNTIME_DIR"
@@ -27,24 +27,7 @@ export DISPLAY=":$(cat "$dir/display")"
 echo "| balls | simulation | frame ms (median) | frames/s | adapter |"
 echo "|---:|---|---:|---:|---|"
 for n in ${counts[@]}; do
-  read -r width height < <(python3 -c "import math; a=$n*math.pi/0.2; w=math.sqrt(a*1.6); print(f'{w:.3f} {a/w:.3f}')")
-  cat > "$dir/gas$n.toml" <<TOML
-name = "gas-$n"
-[field]
-width = $width
-height = $height
-[simulation]
-max-balls = $n
-[effects]
-collisions = {}
-[[generate]]
-count = $n
-diameter = 2.0
-mass = 1.0
-speed = 5.0
-layout = "lattice"
-gap = 1.0
-TOML
+  lattice_scene "$dir/gas$n.toml" "gas-$n" "$n" 'collisions = {}'
   for mode in running paused; do
     "$bin" --scene "$dir/gas$n.toml" --engine lockstep --size 1280x720 --exit-after "$seconds" \
       --report "$dir/w.json" 2> "$dir/stderr" &
