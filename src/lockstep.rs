@@ -846,7 +846,7 @@ impl LocalStep<'_> {
 /// see there). A NaN fails the first test too, and becomes zero rather than spreading. Returns
 /// whether it capped.
 #[inline]
-fn cap_speed(v: &mut DVec2) -> bool {
+pub fn cap_speed(v: &mut DVec2) -> bool {
     let speed2 = v.length_squared();
     if speed2.is_nan() || speed2 > MAX_SPEED * MAX_SPEED {
         *v = if speed2.is_finite() { *v * (MAX_SPEED / speed2.sqrt()) } else { DVec2::ZERO };

@@ -165,6 +165,13 @@ impl RunReport {
                 "messages     {} impulses sent, {} applied, {} deferred, {} dropped; {} threads panicked",
                 st.impulses_sent, st.impulses_applied, st.contacts_deferred, st.messages_dropped, st.threads_panicked
             );
+            if st.speed_limited + st.drag_limited > 0 {
+                let _ = writeln!(
+                    s,
+                    "guard rails  {} speeds capped at 1e5 m/s, {} cycles with drag capped (the field outran its sub-steps)",
+                    st.speed_limited, st.drag_limited
+                );
+            }
             if st.attraction_tree_cycles + st.attraction_direct_cycles > 0 || st.tree_builds > 0 {
                 let _ = writeln!(
                     s,

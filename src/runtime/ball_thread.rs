@@ -11,7 +11,7 @@ use glam::DVec2;
 use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
-use crate::lockstep::MAX_SUBSTEPS;
+use crate::lockstep::{MAX_SUBSTEPS, cap_speed};
 use crate::physics::{
     Ball, BallKind, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, NearBall, WallImpulses, attraction_force,
     attraction_rate_squared, cap_drag_rate, contact_ball_wall, drag_force, drag_rate_bound, integrate, near_force,
@@ -410,6 +410,9 @@ fn advance(
     // Drag still too stiff for the shortest sub-step gets the lockstep engine's guard rail: its
     // rate capped at 1/h (see `Forces::set_drag_rate_limit`).
     let drag_limit = if drag_rate_now * h > MAX_DRAG_STEP { 1.0 / h } else { f64::INFINITY };
+    if drag_limit.is_finite() {
+        shared.drag_limited.fetch_add(1, Ordering::Relaxed);
+    }
     for _ in 0..steps as u64 {
         let mut x = [ball.position];
         let mut v = [ball.velocity];
@@ -434,6 +437,10 @@ fn advance(
             &params.field,
             &mut state.walls,
         );
+        // Lockstep's speed guard rail, for fields faster than the shortest sub-step resolves.
+        if cap_speed(&mut ball.velocity) {
+            shared.speed_limited.fetch_add(1, Ordering::Relaxed);
+        }
     }
     source
 }

@@ -103,6 +103,10 @@ pub struct RuntimeStats {
     pub contacts_deferred: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
+    /// The ball threads' guard rails, as in lockstep: speeds capped at `MAX_SPEED`, and cycles
+    /// whose drag was too stiff for the shortest sub-step (0 in every sane field).
+    pub speed_limited: u64,
+    pub drag_limited: u64,
     pub threads_panicked: u64,
     pub panics: Vec<String>,
     /// Attraction trees the monitor built and published (from `TREE_MIN_BALLS` balls on), per
@@ -487,6 +491,8 @@ impl Runtime {
             impulses_applied: reg.retired.applied + records.iter().map(|r| r.applied).sum::<u64>(),
             contacts_deferred: self.shared.contacts_deferred.load(Ordering::Relaxed),
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
+            speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),
+            drag_limited: self.shared.drag_limited.load(Ordering::Relaxed),
             threads_panicked: self.shared.panicked.load(Ordering::Relaxed),
             panics: reg.panics.clone(),
             tree_builds: builds,

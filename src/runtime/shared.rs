@@ -72,6 +72,11 @@ pub(crate) struct Shared {
     pub contact_messages_sent: AtomicU64,
     pub contacts_deferred: AtomicU64,
     pub messages_dropped: AtomicU64,
+    /// The ball threads' guard rails (see `Lockstep`'s): speeds capped at `MAX_SPEED`, and cycles
+    /// whose drag had its rate capped at 1/h. Relaxed: plain counters, touched only when a rail
+    /// acts (0 in every sane field).
+    pub speed_limited: AtomicU64,
+    pub drag_limited: AtomicU64,
     /// The monitor's latest attraction tree, or none (see `attraction_tree.rs`: the monitor is
     /// its only writer, the ball threads read it lock-free once per cycle).
     pub attraction_tree: PublishedTree,
@@ -107,6 +112,8 @@ impl Shared {
             contact_messages_sent: AtomicU64::new(0),
             contacts_deferred: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),
+            speed_limited: AtomicU64::new(0),
+            drag_limited: AtomicU64::new(0),
             attraction_tree: PublishedTree::empty(),
             tree_builds: AtomicU64::new(0),
             tree_build_ns: AtomicU64::new(0),
