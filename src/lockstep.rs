@@ -144,8 +144,6 @@ pub struct Lockstep {
     /// The speeds the next sub-step's split is judged by, as the last finishing pass left them;
     /// `None` when they must be measured afresh (first step, balls or effects changed).
     split_speeds: Option<SplitSpeeds>,
-    /// The drag rate the last split was judged by (see [`Lockstep::substeps_needed`]), 1/s.
-    drag_rate: f64,
     /// The balls' largest quadratic drag rate at 1 m/s (`largest_drag_c`): fixed while the balls
     /// and effects are; `None` when it must be found afresh.
     drag_c: Option<f64>,
@@ -198,7 +196,6 @@ impl Lockstep {
             contacts: ContactSolver::default(),
             adaptive_substeps: true,
             split_speeds: None,
-            drag_rate: 0.0,
             drag_c: None,
             tallies: Vec::new(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -255,9 +252,17 @@ impl Lockstep {
     pub fn set_effects(&mut self, effects: Effects) {
         self.effects = effects;
         self.forces = Forces::new(&effects);
+        self.forget_derived();
+    }
+
+    /// Forgets what was derived from the balls and effects as they were (the pair list, the speeds
+    /// and drag constants the split is judged by, the orbit rate met): balls were added or
+    /// removed, or the effects changed.
+    fn forget_derived(&mut self) {
         self.grid_stale = true;
         self.split_speeds = None;
         self.drag_c = None;
+        self.forces.forget_orbit_rate();
     }
 
     /// Turns the automatic step splitting (fast balls, stiff drag, fast orbits; see
@@ -331,29 +336,20 @@ impl Lockstep {
         ball.id = BallId(self.next_id);
         self.next_id += 1;
         self.bodies.push(ball);
-        self.grid_stale = true;
-        self.split_speeds = None;
-        self.drag_c = None;
-        self.forces.forget_orbit_rate();
+        self.forget_derived();
         Ok(ball.id)
     }
 
     pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
-        self.grid_stale = true;
-        self.split_speeds = None;
-        self.drag_c = None;
-        self.forces.forget_orbit_rate();
+        self.forget_derived();
         Ok(self.bodies.remove(index))
     }
 
     /// Removes the most recently added ball that is not the key ball.
     pub fn remove_last(&mut self) -> Option<Ball> {
         let index = (0..self.bodies.len()).rev().find(|&i| self.bodies.kind[i] != BallKind::Key)?;
-        self.grid_stale = true;
-        self.split_speeds = None;
-        self.drag_c = None;
-        self.forces.forget_orbit_rate();
+        self.forget_derived();
         Some(self.bodies.remove(index))
     }
 
@@ -388,11 +384,11 @@ impl Lockstep {
         let mut remaining = self.dt;
         let mut taken = 0u32;
         while remaining > 0.0 {
-            let n = if self.adaptive_substeps { self.substeps_needed(remaining) } else { 1 };
+            let (n, drag_rate) = if self.adaptive_substeps { self.substeps_needed(remaining) } else { (1, 0.0) };
             // The last sub-step is exactly what is left, so `remaining` becomes exactly zero.
             let h = if n == 1 { remaining } else { (remaining / n as f64).max(shortest).min(remaining) };
             // Drag the shortest sub-step still cannot resolve gets its guard rail.
-            let stiff = self.adaptive_substeps && self.drag_rate * h > MAX_DRAG_STEP;
+            let stiff = drag_rate * h > MAX_DRAG_STEP;
             self.forces.set_drag_rate_limit(if stiff { 1.0 / h } else { f64::INFINITY });
             self.counters.drag_limited += stiff as u64;
             self.substep(h);
@@ -410,13 +406,14 @@ impl Lockstep {
     /// [`MAX_TRAVEL`] radii per sub-step (see [`Lockstep::step`]); with drag on, so that drag is
     /// not stiff for the step (`drag_rate·h ≤ MAX_DRAG_STEP`: a light, large ball at high speed
     /// would otherwise have its velocity overshoot through zero and blow up); with attraction on,
-    /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`).
+    /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`). Returns the count and
+    /// the drag rate it was judged by (for the drag guard rail).
     ///
     /// The speeds are those the last sub-step's finishing pass measured as it went (see
     /// [`Lockstep::finish_phase`]): the same numbers a pass over the balls now would give, as
     /// nothing has moved since. Only when there are none (the first step, balls added or removed,
     /// effects changed) are they measured here.
-    fn substeps_needed(&mut self, span: f64) -> u32 {
+    fn substeps_needed(&mut self, span: f64) -> (u32, f64) {
         let b = &self.bodies;
         let speeds = match self.split_speeds {
             Some(speeds) => speeds,
@@ -426,7 +423,7 @@ impl Lockstep {
             }
         };
         let mut need = 1.0f64;
-        self.drag_rate = 0.0;
+        let mut drag_rate = 0.0f64;
         if self.effects.collisions.is_some() {
             need = need.max(speeds.travel2.sqrt() * span / MAX_TRAVEL);
         }
@@ -442,7 +439,7 @@ impl Lockstep {
                 rate = rate.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
             }
             need = need.max(rate * span / MAX_DRAG_STEP);
-            self.drag_rate = rate;
+            drag_rate = rate;
         }
         if self.effects.attraction.is_some() {
             // The attraction pass measures the fastest orbit rate while it sums the forces
@@ -467,9 +464,10 @@ impl Lockstep {
             };
             need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
             need = need.max(terminal * span / MAX_DRAG_STEP);
-            self.drag_rate = self.drag_rate.max(terminal);
+            drag_rate = drag_rate.max(terminal);
         }
-        if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) }
+        let n = if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) };
+        (n, drag_rate)
     }
 
     /// One sub-step: three passes over the balls, however many effects are on —

@@ -166,7 +166,7 @@ fn fuzz_finding(rows: &[(f64, f64, f64, f64, f64, f64)], collisions: Option<f64>
         attraction: Some(Attraction { g_constant: 1.0, ..Attraction::default() }),
         collisions: collisions.map(|restitution| Collisions { restitution }),
     };
-    Lockstep::from_parts(field, effects, Integrator::Yoshida4, 1e-3, balls.len(), &balls)
+    common::engine(field, effects, Integrator::Yoshida4, 1e-3, &balls)
 }
 
 /// The random-field property's finding with `PROPTEST_RNG_SEED=12`, 1,000 cases (shrunk by
