@@ -133,7 +133,8 @@ pub trait Engine: Send {
     /// or after `t`, to a hair of rounding). Returns at once if `t` has passed, or if the engine
     /// is paused (the threaded engine's clock then stands still).
     fn advance_to(&mut self, t: f64);
-    /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded).
+    /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded). Nothing
+    /// while paused.
     fn advance_steps(&mut self, n: u64);
     /// The window's tick, never blocking: `wall` is the wall-clock time since the last tick. The
     /// lockstep engine runs the steps that time (times the time scale) is worth; the threaded one
