@@ -30,16 +30,23 @@ pub const MAX_OPENING_ANGLE: f64 = 1.0;
 /// the field, no two listed balls overlapping.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
+    /// The scene's `name`, as the window's title and the report give it.
     pub name: String,
+    /// One line on what the scene shows (may be empty).
     pub description: String,
+    /// The walled field: its size, m, and the walls' restitution.
     pub field: Field,
+    /// The integrator both engines step with, unless the command line picks another.
     pub integrator: Integrator,
     /// Lockstep time step, s.
     pub dt: f64,
+    /// Seed of the generated balls' positions and directions.
     pub seed: u64,
+    /// The most balls the scene may hold, adding at run time included.
     pub max_balls: usize,
     /// Period a threaded ball aims for between its updates, s.
     pub ball_cycle: f64,
+    /// The effects that are on; an absent one is off.
     pub effects: Effects,
     /// The force of the arrow keys on the key ball, N.
     pub pull: f64,
@@ -47,7 +54,8 @@ pub struct Scene {
     pub balls: Vec<Ball>,
 }
 
-/// Where a scene came from, for messages: a file path or a label such as `<builtin default>`.
+/// Where a scene came from, for messages: a file path, or for a built-in scene the path of the
+/// file it was built from (`assets/scenes/gas.toml`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Origin(pub String);
 
@@ -57,18 +65,42 @@ impl fmt::Display for Origin {
     }
 }
 
+/// Why a scene was refused. Every message starts with the file (and its line where there is one).
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The cause is part of the message (and deliberately not a `source()`, so that printing
-    /// the error chain does not say it twice).
+    /// The file cannot be read. The cause is part of the message (and deliberately not a
+    /// `source()`, so that printing the error chain does not say it twice).
     #[error("{file}: cannot read the scene: {cause}")]
-    Read { file: PathBuf, cause: std::io::Error },
+    Read {
+        /// The file asked for.
+        file: PathBuf,
+        /// What the system said.
+        cause: std::io::Error,
+    },
     /// The TOML is malformed, a key is unknown or missing, or a value has the wrong type.
     #[error("{file}:{line}: {message}")]
-    Parse { file: String, line: usize, message: String },
+    Parse {
+        /// Where the scene came from ([`Origin`]).
+        file: String,
+        /// 1-based; 0 when the parser gave no position.
+        line: usize,
+        /// The parser's message, after the key path (`` `balls[1].mass`: ``) when it is known.
+        message: String,
+    },
     /// A value parsed but is not allowed.
     #[error("{file}{}: `{key}` = {value}: {problem}", line.map(|l| format!(":{l}")).unwrap_or_default())]
-    Invalid { file: String, line: Option<usize>, key: String, value: String, problem: String },
+    Invalid {
+        /// Where the scene came from ([`Origin`]).
+        file: String,
+        /// 1-based line of the key, when the document writes it.
+        line: Option<usize>,
+        /// The key path, such as `balls[1].mass`.
+        key: String,
+        /// The value as read.
+        value: String,
+        /// What is wrong with it, as the end of a sentence (`must be between 0 and 1`).
+        problem: String,
+    },
 }
 
 // ---------------------------------------------------------------------------------------------
