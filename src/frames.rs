@@ -18,7 +18,6 @@ use crate::headless::{
     Engine, HeadlessError, HeadlessOptions, finish_threaded, lockstep_report, runtime_config, steps_for,
     threaded_seconds, threaded_start,
 };
-use crate::physics::Bodies;
 use crate::render::{FrameSnapshot, Layout, OffscreenRenderer, RenderError};
 use crate::report::RunReport;
 use crate::runtime::Runtime;
@@ -113,7 +112,7 @@ impl Recorder {
         let mut snapshot = FrameSnapshot::new(scene.field);
         // One frame and a readback before the run: the driver compiles its shaders on first use
         // (hundreds of ms on a CPU adapter), which must not fall into a timed, threaded run.
-        snapshot.fill_from_bodies(scene.field, &Bodies::from_balls(&scene.balls));
+        snapshot.fill(scene.field, &scene.balls);
         out.render_image(&snapshot)?;
         Ok(Recorder {
             out,
@@ -196,7 +195,8 @@ fn run_lockstep(
         engine.run(at - done);
         stepping += clock.elapsed();
         done = at;
-        rec.snapshot.fill_from_bodies(*engine.field(), engine.bodies());
+        let bodies = engine.bodies();
+        rec.snapshot.fill(*engine.field(), (0..bodies.len()).map(|i| bodies.get(i)));
         rec.write()?;
     }
     engine.run(steps - done);
@@ -234,7 +234,7 @@ fn run_threaded(
             continue;
         }
         runtime.snapshot_into(&mut records);
-        rec.snapshot.fill_from_records(runtime.params().field, &records);
+        rec.snapshot.fill(runtime.params().field, records.iter().map(|r| &r.ball));
         if let Err(e) = rec.write() {
             failure = Some(e);
             break;
