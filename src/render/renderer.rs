@@ -373,9 +373,9 @@ impl Renderer {
     /// Uploads the background bands (the walls and the letterbox), then the overlays; returns how
     /// many bands come first.
     ///
-    /// The target is cleared to the field's colour; then the walls and the letterbox are drawn as
+    /// The target is cleared to the field's colour, and the walls and the letterbox are drawn as
     /// opaque bands reaching far outside the field (clipped), so no pixel of the field itself is
-    /// painted twice before the balls: on a CPU rasteriser every covered pixel costs. Each band
+    /// painted twice: on a CPU rasteriser every covered pixel costs. Each band
     /// is a segment with a huge metric half width; its pixel part moves its inner end: 0 for the
     /// walls (they start at the field's edge), -WALL_PX for the letterbox (it starts WALL_PX
     /// further out).
@@ -474,8 +474,8 @@ impl Renderer {
         }
     }
 
-    /// The render pass: the splatted pixels if they are blitted, the `background` bands, the
-    /// balls drawn as primitives, then the `overlays` segments after the bands.
+    /// The render pass: the splatted pixels if they are blitted, the balls drawn as primitives,
+    /// the `background` bands, then the `overlays` segments after the bands.
     fn draw_pass(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -501,9 +501,6 @@ impl Renderer {
         // The splatted pixels, when they could not be copied in; the blit binds its own group 0.
         self.splat_blit.draw(&mut pass);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.background);
-        pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
-        pass.draw(0..4, 0..background);
         let n = balls.count;
         if n > 0 {
             match balls.path {
@@ -525,6 +522,12 @@ impl Renderer {
                 }
             }
         }
+        // The bands after the balls, so that what of a ball reaches over a wall or out of the
+        // field is hidden as it is when the ball is splatted (the splat draws only the field's
+        // pixels, and the bands go over its edge).
+        pass.set_pipeline(&self.background);
+        pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
+        pass.draw(0..4, 0..background);
         if overlays > 0 {
             pass.set_pipeline(&self.segments);
             pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
