@@ -235,8 +235,7 @@ mod tests {
 
     /// The key ball is drawn after every other ball, which keep their order; a held ball goes
     /// over all of them, ringed, where the cursor is. Seen to fail with the key ball swapped with
-    /// the last ball instead of moved after it (the headless frames' old `key_last`): the order
-    /// became 0, 4, 2, 3.
+    /// the last ball instead of moved after it: the order became 0, 4, 2, 3.
     #[test]
     fn fill_draws_the_key_ball_last_and_keeps_the_others_in_order() {
         let balls: Vec<Ball> =
