@@ -20,7 +20,8 @@
 
 use std::path::{Path, PathBuf};
 
-use ballfield::app::{EnergySample, EngineKind, PANEL_WIDTH, PanelPainter, Readouts, Settings, run_ui};
+use ballfield::EngineKind;
+use ballfield::app::{EnergySample, PANEL_WIDTH, PanelPainter, Readouts, Settings, run_ui};
 use ballfield::physics::{Ball, BallId, BallKind, Field};
 use ballfield::render::{
     BallPath, BallSprite, BallStyle, FrameBalls, FrameSnapshot, Layout, Offscreen, OffscreenRenderer, RenderError,
