@@ -61,6 +61,7 @@ pub const PANEL_WIDTH: f32 = 300.0;
 
 /// One frame of the window's UI, laid out by [`run_ui`].
 pub struct PanelFrame {
+    /// What egui made of the frame: the shapes to paint, texture changes, platform output.
     pub output: egui::FullOutput,
     /// What the user asked for through the panel this frame.
     pub commands: Vec<Command>,
