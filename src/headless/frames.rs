@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::physics::{Ball, Bodies, Field};
+use crate::physics::{Ball, Field};
 use crate::render::{FrameSnapshot, Layout, OffscreenRenderer, RenderError};
 use crate::scene::Scene;
 
@@ -59,7 +59,7 @@ impl Recorder {
         let mut snapshot = FrameSnapshot::new(scene.field);
         // One frame and a readback before the run: the driver compiles its shaders on first use
         // (hundreds of ms on a CPU adapter), which must not fall into a timed, threaded run.
-        snapshot.fill_from_bodies(scene.field, &Bodies::from_balls(&scene.balls));
+        snapshot.fill(scene.field, &scene.balls);
         out.render_image(&snapshot)?;
         Ok(Recorder {
             out,
@@ -72,7 +72,7 @@ impl Recorder {
 
     /// Draws `balls` and writes them as the next frame.
     pub(super) fn write(&mut self, field: Field, balls: &[Ball]) -> Result<(), FramesError> {
-        self.snapshot.fill_from_bodies(field, &Bodies::from_balls(balls));
+        self.snapshot.fill(field, balls);
         let t = Instant::now();
         let image = self.out.render_image(&self.snapshot)?;
         self.render_time += t.elapsed();

@@ -1,12 +1,13 @@
 //! What the renderer draws: a plain copy of the field made by whoever sampled the simulation.
 //! The renderer only reads it.
 
+use std::borrow::Borrow;
+
 use bytemuck::{Pod, Zeroable};
 use glam::DVec2;
 
 use super::layout::Layout;
-use crate::physics::{BallKind, Bodies, Field};
-use crate::runtime::BallRecord;
+use crate::physics::{Ball, BallKind, Field};
 
 /// Style of a ball, in the top byte of [`BallSprite::colour`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,6 +42,18 @@ pub struct Segment {
     pub half_width: [f32; 2],
     /// `0xAABBGGRR`, RGB in sRGB, straight alpha.
     pub colour: u32,
+}
+
+impl BallSprite {
+    /// How `ball` is drawn: where, how large, in its kind's and id's colour.
+    pub fn of(ball: &Ball) -> BallSprite {
+        BallSprite {
+            x: ball.position.x as f32,
+            y: ball.position.y as f32,
+            radius: ball.radius() as f32,
+            colour: ball_colour(ball.kind, ball.id.0),
+        }
+    }
 }
 
 impl Segment {
@@ -121,52 +134,61 @@ impl FrameSnapshot {
         FrameSnapshot { field, ..Default::default() }
     }
 
-    /// Refills the balls from a lockstep engine's bodies (in their order). Overlays are cleared.
-    pub fn fill_from_bodies(&mut self, field: Field, bodies: &Bodies) {
+    /// Refills the balls from `balls`, whoever sampled them (a lockstep engine's bodies, the
+    /// threaded runtime's table, the window's copy), and clears the overlays.
+    ///
+    /// The balls are drawn in their order, except the key ball: it is drawn after all of them,
+    /// over any ball it overlaps, because it is the one the user steers and must never be hidden.
+    /// The others keep their relative order (a stable move, not a swap), so two runs that sample
+    /// the same balls in the same order draw the same picture.
+    pub fn fill<B: Borrow<Ball>>(&mut self, field: Field, balls: impl IntoIterator<Item = B>) {
         self.field = field;
         self.balls.clear();
         self.overlays.clear();
-        self.balls.extend((0..bodies.len()).map(|i| BallSprite {
-            x: bodies.position[i].x as f32,
-            y: bodies.position[i].y as f32,
-            radius: bodies.radius[i] as f32,
-            colour: ball_colour(bodies.kind[i], bodies.id[i].0),
-        }));
-        self.key_last();
-    }
-
-    /// Refills the balls from the threaded runtime's table. Overlays are cleared.
-    pub fn fill_from_records(&mut self, field: Field, records: &[BallRecord]) {
-        self.field = field;
-        self.balls.clear();
-        self.overlays.clear();
-        self.balls.extend(records.iter().map(|r| BallSprite {
-            x: r.ball.position.x as f32,
-            y: r.ball.position.y as f32,
-            radius: r.ball.radius() as f32,
-            colour: ball_colour(r.ball.kind, r.ball.id.0),
-        }));
-        self.key_last();
-    }
-
-    /// The key ball is drawn last, over any ball it overlaps.
-    fn key_last(&mut self) {
+        self.balls.extend(balls.into_iter().map(|b| BallSprite::of(b.borrow())));
         let key = (BallStyle::Key as u32) << 24;
         if let Some(k) = self.balls.iter().position(|b| b.colour & 0xFF00_0000 == key) {
-            let last = self.balls.len() - 1;
-            self.balls.swap(k, last);
+            self.balls[k..].rotate_left(1);
         }
+    }
+
+    /// A ball the mouse holds, at `position` (where the cursor is, not where the engine last saw
+    /// it): drawn over every ball of the field, the key ball included, with a yellow ring.
+    pub fn add_held(&mut self, ball: &Ball, position: DVec2) {
+        let sprite = BallSprite::of(&Ball { position, ..*ball });
+        self.balls.push(BallSprite { colour: with_style(sprite.colour, BallStyle::Held), ..sprite });
     }
 }
 
 /// Overlays: segments to push onto [`FrameSnapshot::overlays`].
 impl FrameSnapshot {
     /// An arrow from each ball's centre along its velocity, `seconds` of travel long.
-    pub fn add_velocity_vectors(&mut self, balls: impl IntoIterator<Item = (DVec2, DVec2)>, seconds: f64) {
-        for (p, v) in balls {
+    pub fn add_velocity_vectors<B: Borrow<Ball>>(&mut self, balls: impl IntoIterator<Item = B>, seconds: f64) {
+        for b in balls {
+            let (p, v) = (b.borrow().position, b.borrow().velocity);
             if v.length_squared() > 1e-12 {
                 self.overlays.push(Segment::line(p, p + v * seconds, 1.0, palette::VELOCITY));
             }
+        }
+    }
+
+    /// A cross of 1.5 m at the centre of mass of `balls` (nothing for no balls, or no mass).
+    pub fn add_centre_of_mass<B: Borrow<Ball>>(&mut self, balls: impl IntoIterator<Item = B>) {
+        let (mut mass, mut moment) = (0.0, DVec2::ZERO);
+        for b in balls {
+            let b = b.borrow();
+            mass += b.mass;
+            moment += b.position * b.mass;
+        }
+        if mass > 0.0 {
+            self.add_cross(moment / mass, 1.5, palette::CENTRE_OF_MASS);
+        }
+    }
+
+    /// The pull on the key ball at `from`: a white line along `force`, 1 m per 100 N.
+    pub fn add_pull(&mut self, from: DVec2, force: DVec2) {
+        if force != DVec2::ZERO {
+            self.overlays.push(Segment::line(from, from + force / 100.0, 2.0, palette::PULL));
         }
     }
 
@@ -178,12 +200,88 @@ impl FrameSnapshot {
     }
 
     /// A polyline through `points`, fading in from its first point (the oldest) to its last.
-    pub fn add_trace(&mut self, points: &[DVec2], colour: u32) {
+    pub fn add_trace<I>(&mut self, points: I, colour: u32)
+    where
+        I: IntoIterator<Item = DVec2>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        let mut points = points.into_iter();
         let n = points.len();
         let alpha = (colour >> 24) as f64;
-        for (k, pair) in points.windows(2).enumerate() {
+        let Some(mut last) = points.next() else { return };
+        for (k, p) in points.enumerate() {
             let a = (alpha * (k + 1) as f64 / n as f64) as u32;
-            self.overlays.push(Segment::line(pair[0], pair[1], 1.0, (colour & 0x00FF_FFFF) | (a << 24)));
+            self.overlays.push(Segment::line(last, p, 1.0, (colour & 0x00FF_FFFF) | (a << 24)));
+            last = p;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::BallId;
+
+    fn ball(id: u32, kind: BallKind, x: f64) -> Ball {
+        Ball {
+            id: BallId(id),
+            kind,
+            position: DVec2::new(x, 1.0),
+            velocity: DVec2::new(1.0, 0.0),
+            mass: 1.0 + id as f64,
+            diameter: 1.0,
+        }
+    }
+
+    /// The key ball is drawn after every other ball, which keep their order; a held ball goes
+    /// over all of them, ringed, where the cursor is. Seen to fail with the key ball swapped with
+    /// the last ball instead of moved after it: the order became 0, 4, 2, 3.
+    #[test]
+    fn fill_draws_the_key_ball_last_and_keeps_the_others_in_order() {
+        let balls: Vec<Ball> =
+            (0..5).map(|i| ball(i, if i == 1 { BallKind::Key } else { BallKind::Ball }, i as f64)).collect();
+        let mut s = FrameSnapshot::default();
+        s.overlays.push(Segment::default());
+        s.fill(Field::default(), &balls);
+        assert!(s.overlays.is_empty());
+        let order: Vec<f32> = s.balls.iter().map(|b| b.x).collect();
+        assert_eq!(order, [0.0, 2.0, 3.0, 4.0, 1.0]);
+        assert_eq!(s.balls[4].colour >> 24, BallStyle::Key as u32);
+        assert_eq!(s.balls[0], BallSprite::of(&balls[0]));
+
+        s.add_held(&balls[2], DVec2::new(7.0, 8.0));
+        let held = s.balls[5];
+        assert_eq!((held.x, held.y, held.radius), (7.0, 8.0, 0.5));
+        assert_eq!(held.colour, with_style(ball_colour(BallKind::Ball, 2), BallStyle::Held));
+    }
+
+    /// The overlays the window draws: the pull (1 m per 100 N from the key ball, none without a
+    /// pull), the centre of mass (mass-weighted) and a trace that fades in towards its newest
+    /// point. Seen to fail with the centre of mass unweighted (`moment += b.position`).
+    #[test]
+    fn overlays() {
+        let mut s = FrameSnapshot::default();
+        s.add_pull(DVec2::new(1.0, 2.0), DVec2::ZERO);
+        assert!(s.overlays.is_empty());
+        s.add_pull(DVec2::new(1.0, 2.0), DVec2::new(200.0, 0.0));
+        assert_eq!(s.overlays[0].ends, [1.0, 2.0, 3.0, 2.0]);
+
+        s.overlays.clear();
+        s.add_centre_of_mass(std::iter::empty::<Ball>());
+        assert!(s.overlays.is_empty());
+        // Masses 1 and 3 at x = 0 and 4: the centre is at x = 3.
+        s.add_centre_of_mass([ball(0, BallKind::Ball, 0.0), ball(2, BallKind::Ball, 4.0)]);
+        let [x0, y0, x1, y1] = s.overlays[0].ends;
+        assert_eq!(((x0 + x1) / 2.0, (y0 + y1) / 2.0), (3.0, 1.0));
+
+        s.overlays.clear();
+        let points = [DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE];
+        s.add_trace(points, palette::TRACE);
+        assert_eq!(s.overlays.len(), 3);
+        let alpha: Vec<u32> = s.overlays.iter().map(|o| o.colour >> 24).collect();
+        assert!(alpha.windows(2).all(|a| a[0] < a[1]) && alpha[2] <= palette::TRACE >> 24, "{alpha:?}");
+        assert_eq!(s.overlays[2].ends, [0.0, 1.0, 1.0, 1.0]);
+        s.add_trace([DVec2::ZERO], palette::TRACE);
+        assert_eq!(s.overlays.len(), 3);
     }
 }
