@@ -12,6 +12,7 @@ use crate::scene::Scene;
 /// Where and how often to write frames.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameOptions {
+    /// The directory the PNGs go to (`--frames DIR`); created if it is missing.
     pub dir: PathBuf,
     /// Seconds between frames: simulated (lockstep) or wall-clock (threaded).
     pub every: f64,
@@ -22,23 +23,44 @@ pub struct FrameOptions {
 /// What was written.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FramesWritten {
+    /// Frames written, numbered from 0 (see [`frame_path`]).
     pub frames: usize,
+    /// Frame instants that passed while the previous frame was drawn (threaded engine), not
+    /// written.
     pub skipped: usize,
+    /// Width of each frame, px.
     pub width: u32,
+    /// Height of each frame, px.
     pub height: u32,
+    /// The GPU adapter that drew them, as `name (backend, device type)`: on a machine without a
+    /// GPU, a CPU driver such as llvmpipe.
     pub adapter: String,
     /// Mean seconds to draw a frame and read it back (PNG encoding excluded).
     pub render_seconds: f64,
 }
 
+/// Why frames could not be drawn or written.
 #[derive(Debug, thiserror::Error)]
 pub enum FramesError {
+    /// The offscreen renderer failed: no adapter, no device, or a failed readback.
     #[error("--frames: {0}")]
     Render(#[from] RenderError),
+    /// The frames' directory could not be created.
     #[error("--frames {dir}: cannot create the directory: {cause}")]
-    Dir { dir: PathBuf, cause: std::io::Error },
+    Dir {
+        /// The directory asked for.
+        dir: PathBuf,
+        /// What the file system said.
+        cause: std::io::Error,
+    },
+    /// A frame could not be encoded or saved as a PNG.
     #[error("--frames: cannot write {file}: {cause}")]
-    Write { file: PathBuf, cause: image::ImageError },
+    Write {
+        /// The frame's file.
+        file: PathBuf,
+        /// What the image encoder or the file system said.
+        cause: image::ImageError,
+    },
 }
 
 /// Draws frames offscreen and writes them as PNGs.
