@@ -18,7 +18,7 @@ pub struct BodyProps<'a> {
     pub diameter: &'a [f64],
 }
 
-/// One ball's constants, for the passes evaluated on one ball alone ([`Forces::ball_acceleration`]).
+/// One ball's constants, for the passes evaluated on one ball alone ([`Forces::on_ball`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BallProps {
     pub mass: f64,
@@ -31,6 +31,79 @@ pub struct BallProps {
 pub struct PointForce {
     pub index: usize,
     pub force: DVec2,
+}
+
+/// The other balls' pull on one ball, for the passes evaluated on that ball alone
+/// ([`Forces::on_ball`]): a tree split's far force plus its near balls, or a direct sum over the
+/// others' last known states — whatever the engine holds.
+pub trait OtherBalls {
+    /// Their force (N), under `attraction`, on a ball of `mass` and `radius` at `x`.
+    fn force_at(&self, x: DVec2, mass: f64, radius: f64, attraction: &Attraction) -> DVec2;
+}
+
+impl<T: OtherBalls + ?Sized> OtherBalls for &T {
+    #[inline]
+    fn force_at(&self, x: DVec2, mass: f64, radius: f64, attraction: &Attraction) -> DVec2 {
+        (**self).force_at(x, mass, radius, attraction)
+    }
+}
+
+/// The force passes on one ball alone (see [`Forces::on_ball`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BallForces<'a, O> {
+    forces: &'a Forces,
+    ball: BallProps,
+    pull: DVec2,
+    others: O,
+}
+
+impl<O: OtherBalls> BallForces<'_, O> {
+    /// The ball's acceleration at `x` moving at `v`: the passes of [`Forces::accelerations`] in
+    /// the same order (gravity, drag under its rate limit, attraction from the other balls, then
+    /// the pull).
+    #[inline]
+    pub fn acceleration(&self, x: DVec2, v: DVec2) -> DVec2 {
+        self.sum::<true>(x, v)
+    }
+
+    /// The largest drag rate the ball at `x` moving at `v` can meet (see
+    /// [`crate::physics::drag_rate_bound`]): at its speed now, or at the terminal speed gravity,
+    /// attraction and the pull drive it to. 0 with drag off.
+    pub fn drag_rate(&self, x: DVec2, v: DVec2) -> f64 {
+        let Some(drag) = self.forces.drag() else { return 0.0 };
+        drag_rate_bound(v, self.sum::<false>(x, v), self.ball.diameter, self.ball.mass, &drag)
+    }
+
+    /// The other balls, as given to [`Forces::on_ball`].
+    pub fn others(&self) -> &O {
+        &self.others
+    }
+
+    /// Whether the acceleration depends on velocity (drag is on).
+    pub fn depends_on_velocity(&self) -> bool {
+        self.forces.depends_on_velocity()
+    }
+
+    /// The acceleration, the drag pass included only when `DRAG`.
+    #[inline]
+    fn sum<const DRAG: bool>(&self, x: DVec2, v: DVec2) -> DVec2 {
+        let BallProps { mass, inverse_mass, diameter } = self.ball;
+        let mut acc = DVec2::ZERO;
+        for pass in &self.forces.passes {
+            match pass {
+                ForcePass::Gravity(g) => acc += *g,
+                ForcePass::Drag(drag) if DRAG => {
+                    let a = drag_force(v, diameter, drag) * inverse_mass;
+                    acc += cap_drag_rate(a, v, self.forces.drag_rate_limit);
+                }
+                ForcePass::Drag(_) => {}
+                ForcePass::Attraction(attraction) => {
+                    acc += self.others.force_at(x, mass, 0.5 * diameter, attraction) * inverse_mass;
+                }
+            }
+        }
+        acc + self.pull * inverse_mass
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -299,65 +372,13 @@ impl Forces {
         add_pull(pull, props, acc);
     }
 
-    /// The acceleration of one ball at `x` moving at `v` with the force `pull` (N) on it: the
-    /// passes of [`Forces::accelerations`] in the same order (gravity, drag under its rate limit,
-    /// attraction, then the pull), for an engine that advances each ball by itself (the threaded
-    /// runtime's ball threads). The other balls are the caller's: the attraction pass takes their
-    /// force on the ball (N) at `x` from `others(x, attraction)` — a tree split's far force plus
-    /// its near balls, or a direct sum over a table.
+    /// The passes on one ball alone, for an engine that advances each ball by itself (the
+    /// threaded runtime's ball threads): `ball` with the force `pull` (N) on it, and the other
+    /// balls' pull from `others` (the caller holds the other balls, the passes do not). See
+    /// [`BallForces`].
     #[inline]
-    pub fn ball_acceleration(
-        &self,
-        ball: BallProps,
-        pull: DVec2,
-        x: DVec2,
-        v: DVec2,
-        others: impl Fn(DVec2, &Attraction) -> DVec2,
-    ) -> DVec2 {
-        self.ball_sum::<true>(ball, pull, x, v, others)
-    }
-
-    /// The largest drag rate one ball at `x` moving at `v` can meet (see
-    /// [`crate::physics::drag_rate_bound`]): at its speed now, or at the terminal speed gravity,
-    /// attraction (`others`, as in [`Forces::ball_acceleration`]) and the force `pull` drive it
-    /// to. 0 with drag off.
-    pub fn ball_drag_rate(
-        &self,
-        ball: BallProps,
-        pull: DVec2,
-        x: DVec2,
-        v: DVec2,
-        others: impl Fn(DVec2, &Attraction) -> DVec2,
-    ) -> f64 {
-        let Some(drag) = self.drag() else { return 0.0 };
-        let driving = self.ball_sum::<false>(ball, pull, x, v, others);
-        drag_rate_bound(v, driving, ball.diameter, ball.mass, &drag)
-    }
-
-    /// One ball's acceleration, the drag pass included only when `DRAG` (see
-    /// [`Forces::ball_acceleration`]).
-    #[inline]
-    fn ball_sum<const DRAG: bool>(
-        &self,
-        ball: BallProps,
-        pull: DVec2,
-        x: DVec2,
-        v: DVec2,
-        others: impl Fn(DVec2, &Attraction) -> DVec2,
-    ) -> DVec2 {
-        let mut acc = DVec2::ZERO;
-        for pass in &self.passes {
-            match pass {
-                ForcePass::Gravity(g) => acc += *g,
-                ForcePass::Drag(drag) if DRAG => {
-                    let a = drag_force(v, ball.diameter, drag) * ball.inverse_mass;
-                    acc += cap_drag_rate(a, v, self.drag_rate_limit);
-                }
-                ForcePass::Drag(_) => {}
-                ForcePass::Attraction(attraction) => acc += others(x, attraction) * ball.inverse_mass,
-            }
-        }
-        acc + pull * ball.inverse_mass
+    pub fn on_ball<O: OtherBalls>(&self, ball: BallProps, pull: DVec2, others: O) -> BallForces<'_, O> {
+        BallForces { forces: self, ball, pull, others }
     }
 
     /// The drag, of either kind.

@@ -34,6 +34,6 @@ pub use effects::{
     gravity_force, gravity_potential, quadratic_terminal_speed,
 };
 pub use field::{Field, Wall, WallImpulses};
-pub use forces::{AttractionMethod, BallProps, BodyProps, Forces, PointForce, TREE_MIN_BALLS};
+pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};

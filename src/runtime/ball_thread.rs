@@ -12,9 +12,9 @@ use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
-    Attraction, Ball, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, SpanRates, StepPolicy,
-    SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed, contact_ball_wall, integrate,
-    near_force,
+    Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
+    SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
+    contact_ball_wall, integrate, near_force,
 };
 
 /// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
@@ -52,7 +52,7 @@ struct BallState {
 #[derive(Default)]
 struct CycleScratch {
     integrator: IntegratorScratch,
-    /// The force passes of `effects`, the very ones lockstep runs (see [`CycleScratch::forces_for`]).
+    /// The force passes of `effects`, the very ones lockstep runs (see [`CycleScratch::refresh_forces`]).
     forces: Forces,
     effects: Option<Effects>,
     /// The other balls, read directly from the table (attraction below TREE_MIN_BALLS).
@@ -333,64 +333,21 @@ fn advance(
     let CycleScratch { integrator, forces, others, near, .. } = scratch;
     let ball = &state.ball;
     let body = BallProps { mass: ball.mass, inverse_mass: 1.0 / ball.mass, diameter: ball.diameter };
+    // Gravity and the pull: the ball's uniform acceleration, for the tree split's margin and for
+    // an exact bounce off a wall.
     let gravity = params.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
     let uniform = gravity + state.pull * body.inverse_mass;
-    let cycle = BallForces {
-        body,
-        radius: ball.radius(),
-        pull: state.pull,
-        uniform,
-        others: gather_others(state, uniform, dt, params, shared, others, near),
-        forces,
-    };
-    let sub = judge_split(&state.ball, dt, max_step, &cycle);
+    let others = gather_others(state, uniform, dt, params, shared, others, near);
+    let sub = judge_split(&state.ball, dt, max_step, forces.on_ball(body, state.pull, &others));
     // Drag too stiff even for the policy's shortest sub-step gets lockstep's guard rail.
-    cycle.forces.set_drag_rate_limit(sub.drag_rate_limit);
+    forces.set_drag_rate_limit(sub.drag_rate_limit);
     if sub.drag_limited() {
         // Relaxed: a statistic (see `Shared::drag_limited`).
         shared.drag_limited.fetch_add(1, Ordering::Relaxed);
     }
-    take_substeps(state, sub, &cycle, params, shared, integrator);
-    cycle.others.source()
-}
-
-/// The forces on this ball for one cycle: the force passes, the ball's constants, the pull on
-/// it and the other balls' pull.
-struct BallForces<'a> {
-    forces: &'a mut Forces,
-    body: BallProps,
-    radius: f64,
-    /// The pull (N) on the ball.
-    pull: DVec2,
-    /// Gravity and the pull: the ball's uniform acceleration, for an exact bounce off a wall.
-    uniform: DVec2,
-    others: OthersPull<'a>,
-}
-
-impl BallForces<'_> {
-    /// The other balls' force (N) on this one at `x`.
-    #[inline]
-    fn of_others(&self, x: DVec2, attraction: &Attraction) -> DVec2 {
-        self.others.force_at(x, self.body.mass, self.radius, attraction)
-    }
-
-    /// The acceleration at `x` moving at `v` (`Forces::ball_acceleration`).
-    #[inline]
-    fn acceleration(&self, x: DVec2, v: DVec2) -> DVec2 {
-        self.forces.ball_acceleration(self.body, self.pull, x, v, |x, att| self.of_others(x, att))
-    }
-
-    /// The rates the step policy judges the cycle by, at `x` moving at `v`: drag at the speed now
-    /// or at the terminal speed the other forces drive the ball to within the cycle
-    /// (`Forces::ball_drag_rate`), and the fastest orbit with another ball. Travel is not bounded
-    /// here: contacts are the monitor's, judged at its own period.
-    fn rates(&self, x: DVec2, v: DVec2) -> SpanRates {
-        SpanRates {
-            travel: 0.0,
-            drag: self.forces.ball_drag_rate(self.body, self.pull, x, v, |x, att| self.of_others(x, att)),
-            orbit: self.others.orbit_rate2(x, self.body.mass, self.radius).sqrt(),
-        }
-    }
+    let ball_forces = forces.on_ball(body, state.pull, &others);
+    take_substeps(state, sub, ball_forces, uniform, params, shared, integrator);
+    others.source()
 }
 
 /// The other balls' pull on this one, frozen for a whole cycle (every sub-step): see
@@ -407,16 +364,7 @@ enum OthersPull<'a> {
     Direct { table: &'a [BallRecord], attraction: Attraction },
 }
 
-impl OthersPull<'_> {
-    fn source(&self) -> AttractionSource {
-        match self {
-            OthersPull::Off => AttractionSource::Off,
-            OthersPull::Split { .. } => AttractionSource::Tree,
-            OthersPull::Direct { .. } => AttractionSource::Direct,
-        }
-    }
-
-    /// Their force (N) on a ball of `mass` and `radius` at `x`.
+impl OtherBalls for OthersPull<'_> {
     #[inline]
     fn force_at(&self, x: DVec2, mass: f64, radius: f64, att: &Attraction) -> DVec2 {
         match self {
@@ -426,6 +374,16 @@ impl OthersPull<'_> {
                 let ob = &o.ball;
                 f + attraction_force(x, mass, radius, ob.position, ob.mass, ob.radius(), att)
             }),
+        }
+    }
+}
+
+impl OthersPull<'_> {
+    fn source(&self) -> AttractionSource {
+        match self {
+            OthersPull::Off => AttractionSource::Off,
+            OthersPull::Split { .. } => AttractionSource::Tree,
+            OthersPull::Direct { .. } => AttractionSource::Direct,
         }
     }
 
@@ -492,38 +450,47 @@ fn gather_others<'a>(
 }
 
 /// How this cycle's `dt` is split: by the step policy lockstep uses (see `StepPolicy`), with
-/// sub-steps at most `max_step` long, judged by the rates at the ball's state now.
-fn judge_split(ball: &Ball, dt: f64, max_step: f64, cycle: &BallForces<'_>) -> SubSteps {
-    let rates = cycle.rates(ball.position, ball.velocity);
+/// sub-steps at most `max_step` long, judged by the rates at the ball's state now: drag at the
+/// speed now or at the terminal speed the other forces drive the ball to within the cycle
+/// (`BallForces::drag_rate`), and the fastest orbit with another ball. Travel is not bounded
+/// here: contacts are the monitor's, judged at its own period.
+fn judge_split(ball: &Ball, dt: f64, max_step: f64, forces: BallForces<'_, &OthersPull<'_>>) -> SubSteps {
+    let rates = SpanRates {
+        travel: 0.0,
+        drag: forces.drag_rate(ball.position, ball.velocity),
+        orbit: forces.others().orbit_rate2(ball.position, ball.mass, ball.radius()).sqrt(),
+    };
     StepPolicy::new(dt).with_max_step(max_step).split(dt, &rates)
 }
 
 /// `sub.count` sub-steps of `sub.h`, each integrated through the force passes and followed by the
-/// walls and lockstep's speed guard rail.
+/// walls (`uniform`: the ball's uniform acceleration) and lockstep's speed guard rail.
 fn take_substeps(
     state: &mut BallState,
     sub: SubSteps,
-    cycle: &BallForces<'_>,
+    forces: BallForces<'_, &OthersPull<'_>>,
+    uniform: DVec2,
     params: &Params,
     shared: &Shared,
     scratch: &mut IntegratorScratch,
 ) {
-    let velocity_dependent = cycle.forces.depends_on_velocity();
+    let velocity_dependent = forces.depends_on_velocity();
     let ball = &mut state.ball;
+    let (radius, mass) = (ball.radius(), ball.mass);
     for _ in 0..sub.count {
         let mut x = [ball.position];
         let mut v = [ball.velocity];
         integrate(params.integrator, sub.h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
-            a[0] = cycle.acceleration(x[0], v[0]);
+            a[0] = forces.acceleration(x[0], v[0]);
         });
         ball.position = x[0];
         ball.velocity = v[0];
         contact_ball_wall(
             &mut ball.position,
             &mut ball.velocity,
-            cycle.radius,
-            cycle.body.mass,
-            cycle.uniform,
+            radius,
+            mass,
+            uniform,
             &params.field,
             &mut state.walls,
         );
