@@ -6,7 +6,6 @@
 //! `'static`. For GL the instance is created with the event loop's display handle (ci-notes.md).
 
 mod panel;
-mod sim;
 
 use std::collections::{HashMap, VecDeque};
 use std::path::PathBuf;
@@ -22,8 +21,8 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 pub use panel::{Command, HELP};
-pub use sim::EngineKind;
 
+use crate::engine::{self, Engine, EngineKind};
 use crate::physics::{
     Attraction, Ball, BallId, BallKind, Bodies, Effects, attraction_potential_energy, gravity_potential_energy,
     kinetic_energy, momentum,
@@ -35,7 +34,6 @@ use crate::render::{
 use crate::scene::Scene;
 use crate::scenes;
 use panel::{EnergySample, Readouts, Settings};
-use sim::Sim;
 
 /// How the window runs.
 #[derive(Clone, Debug)]
@@ -125,7 +123,9 @@ struct Grab {
 struct App {
     options: AppOptions,
     scene: Scene,
-    sim: Sim,
+    engine: Box<dyn Engine>,
+    /// When the engine last ticked.
+    last_tick: Instant,
     gfx: Option<Graphics>,
     egui_ctx: egui::Context,
     settings: Settings,
@@ -189,7 +189,7 @@ const PANEL_REFRESH: Duration = Duration::from_millis(250);
 impl App {
     fn new(options: AppOptions) -> Result<App, AppError> {
         let scene = options.scene.clone();
-        let sim = Sim::start(&scene, options.engine, options.sample_every).map_err(AppError::Start)?;
+        let engine = engine::start(options.engine, &scene, None).map_err(|e| AppError::Start(e.to_string()))?;
         let index = scenes::BUILTIN.iter().position(|(n, _)| *n == scene.name).unwrap_or(0);
         let settings = settings_for(&scene, index, &scene.effects);
         let now = Instant::now();
@@ -202,7 +202,8 @@ impl App {
                 ..Default::default()
             },
             options,
-            sim,
+            engine,
+            last_tick: Instant::now(),
             gfx: None,
             egui_ctx: egui::Context::default(),
             settings,
@@ -232,8 +233,8 @@ impl App {
     }
 
     fn finish(mut self) -> Result<AppReport, AppError> {
-        self.sim.sample(&mut self.balls);
-        self.sim.shutdown();
+        self.engine.sample(&mut self.balls);
+        self.shutdown_engine();
         let r = &mut self.report;
         r.seconds = self.started.elapsed().as_secs_f64();
         r.frames_per_second = r.frames as f64 / r.seconds.max(1e-9);
@@ -246,6 +247,13 @@ impl App {
             std::fs::write(file, json).map_err(|cause| AppError::Report { file: file.clone(), cause })?;
         }
         Ok(self.report)
+    }
+
+    /// Stops the engine's threads and joins them, logging any ball thread that had panicked.
+    fn shutdown_engine(&mut self) {
+        for p in self.engine.shutdown().panics {
+            log::error!("a ball thread had panicked: {p}");
+        }
     }
 
     fn init_graphics(&mut self, event_loop: &ActiveEventLoop) -> Result<Graphics, String> {
@@ -319,7 +327,7 @@ impl App {
 
     fn update_pull(&mut self) {
         let f = self.pull_force();
-        self.sim.set_pull(f);
+        self.engine.set_pull(f);
     }
 
     fn effects_from_settings(&self) -> Effects {
@@ -346,14 +354,16 @@ impl App {
     }
 
     fn restart(&mut self, scene: Scene, kind: EngineKind) {
-        self.sim.shutdown();
-        match Sim::start(&scene, kind, self.options.sample_every) {
-            Ok(sim) => {
-                self.sim = sim;
+        // The running engine stays if the new one cannot start: nothing running is lost.
+        match engine::start(kind, &scene, None) {
+            Ok(engine) => {
+                self.shutdown_engine();
+                self.engine = engine;
+                self.last_tick = Instant::now();
                 self.report.engine = kind.name().into();
             }
             Err(e) => {
-                self.readouts.message = e;
+                self.readouts.message = format!("cannot start the {kind} engine: {e}");
                 return;
             }
         }
@@ -377,22 +387,23 @@ impl App {
         match command {
             Command::AddBall => {
                 let (m, d) = new_ball_shape(&self.scene);
-                match self.sim.add_ball_at_free_spot(m, d) {
+                match self.engine.add_ball_at_free_spot(m, d) {
                     Ok(_) => self.report.balls_added += 1,
-                    Err(e) => self.readouts.message = e,
+                    Err(e) => self.readouts.message = e.to_string(),
                 }
             }
             Command::RemoveLast => {
-                if self.sim.remove_last() {
+                if self.engine.remove_last().is_some() {
                     self.report.balls_removed += 1;
                 }
             }
             Command::TogglePause => {
-                let p = !self.sim.is_paused();
-                self.sim.set_paused(p);
+                let p = !self.engine.is_paused();
+                self.engine.set_paused(p);
+                self.last_tick = Instant::now();
             }
-            Command::Step => self.sim.single_step(),
-            Command::Reset => self.restart(self.scene.clone(), self.sim.kind()),
+            Command::Step => self.engine.single_step(self.options.sample_every),
+            Command::Reset => self.restart(self.scene.clone(), self.engine.kind()),
             Command::ToggleGravity => self.toggle_effect(|s| &mut s.gravity),
             Command::ToggleDrag => self.toggle_effect(|s| &mut s.drag),
             Command::ToggleAttraction => self.toggle_effect(|s| &mut s.attraction),
@@ -400,7 +411,7 @@ impl App {
             Command::Scene(k) => {
                 if let Some(Ok(scene)) = scenes::BUILTIN.get(k).and_then(|(n, _)| scenes::builtin(n)) {
                     self.report.scene = scene.name.clone();
-                    self.restart(scene, self.sim.kind());
+                    self.restart(scene, self.engine.kind());
                     if let Some(g) = &self.gfx {
                         g.window.set_title(&format!("ballfield — {}", self.scene.name));
                     }
@@ -409,7 +420,7 @@ impl App {
             Command::Engine(kind) => {
                 // The new engine starts from where the balls are now.
                 let mut scene = self.scene.clone();
-                self.sim.sample(&mut self.balls);
+                self.engine.sample(&mut self.balls);
                 scene.balls = self.balls.clone();
                 scene.balls.sort_by_key(|b| (b.kind != BallKind::Key, b.id));
                 scene.effects = self.effects_from_settings();
@@ -417,8 +428,8 @@ impl App {
                 let keep = self.settings.clone();
                 self.restart(scene, kind);
                 self.settings = keep;
-                self.sim.set_restitution(self.settings.restitution);
-                self.sim.set_time_scale(self.settings.time_scale);
+                self.engine.set_restitution(self.settings.restitution, self.settings.restitution);
+                self.engine.set_time_scale(self.settings.time_scale);
             }
             Command::TogglePanel => self.show_panel = !self.show_panel,
             Command::ToggleHelp => self.show_help = !self.show_help,
@@ -435,15 +446,19 @@ impl App {
             }
             Command::SetKeyMass(m) => {
                 self.settings.key_mass = m;
-                self.sim.set_key_mass(m);
+                if let Some(key) = self.engine.key_ball()
+                    && let Err(e) = self.engine.set_mass(key, m)
+                {
+                    self.readouts.message = e.to_string();
+                }
             }
             Command::SetRestitution(e) => {
                 self.settings.restitution = e;
-                self.sim.set_restitution(e);
+                self.engine.set_restitution(e, e);
             }
             Command::SetTimeScale(t) => {
                 self.settings.time_scale = t;
-                self.sim.set_time_scale(t);
+                self.engine.set_time_scale(t);
             }
         }
     }
@@ -452,7 +467,7 @@ impl App {
         let flag = which(&mut self.settings);
         *flag = !*flag;
         let effects = self.effects_from_settings();
-        self.sim.set_effects(effects);
+        self.engine.set_effects(effects);
     }
 
     fn key(&mut self, code: KeyCode, pressed: bool, repeat: bool, event_loop: &ActiveEventLoop) {
@@ -486,10 +501,7 @@ impl App {
             KeyCode::KeyD => Command::ToggleDrag,
             KeyCode::KeyN => Command::ToggleAttraction,
             KeyCode::KeyC => Command::ToggleCollisions,
-            KeyCode::KeyE => Command::Engine(match self.sim.kind() {
-                EngineKind::Threaded => EngineKind::Lockstep,
-                EngineKind::Lockstep => EngineKind::Threaded,
-            }),
+            KeyCode::KeyE => Command::Engine(self.engine.kind().next()),
             KeyCode::KeyV => Command::ToggleVectors,
             KeyCode::KeyM => Command::ToggleCentreOfMass,
             KeyCode::KeyT => Command::ToggleTraces,
@@ -518,7 +530,7 @@ impl App {
 
     fn mouse(&mut self, button: MouseButton, pressed: bool) {
         let Some(p) = self.cursor_metres() else { return };
-        let field = self.sim.field();
+        let field = self.engine.field();
         let inside = p.x >= 0.0 && p.y >= 0.0 && p.x <= field.width && p.y <= field.height;
         match (button, pressed) {
             (MouseButton::Left, true) if inside => {
@@ -526,7 +538,7 @@ impl App {
                 let hit = self.balls.iter().rev().find(|b| b.position.distance(p) <= b.radius().max(0.3)).copied();
                 match hit {
                     Some(b) => {
-                        if let Some(ball) = self.sim.take_ball(b.id) {
+                        if let Ok(ball) = self.engine.remove_ball(b.id) {
                             let mut trail = VecDeque::new();
                             trail.push_back((Instant::now(), p));
                             self.grab = Some(Grab { ball, trail });
@@ -540,8 +552,8 @@ impl App {
                 if let Some(grab) = self.grab.take() {
                     let v = throw_velocity(&grab.trail);
                     let ball = Ball { position: p, velocity: v, ..grab.ball };
-                    if let Err(e) = self.sim.add_ball(ball) {
-                        self.readouts.message = e;
+                    if let Err(e) = self.engine.put_back(ball) {
+                        self.readouts.message = e.to_string();
                     }
                     if ball.kind == BallKind::Key {
                         self.update_pull();
@@ -555,18 +567,19 @@ impl App {
     fn drop_ball_at(&mut self, p: DVec2) {
         let (mass, diameter) = new_ball_shape(&self.scene);
         let ball = Ball { id: BallId(0), kind: BallKind::Ball, position: p, velocity: DVec2::ZERO, mass, diameter };
-        match self.sim.add_ball(ball) {
+        match self.engine.add_ball(ball) {
             Ok(_) => self.report.balls_added += 1,
-            Err(e) => self.readouts.message = e,
+            Err(e) => self.readouts.message = e.to_string(),
         }
     }
 
     // ---- the 15 ms tick -------------------------------------------------------------------
 
     fn tick(&mut self) {
-        self.sim.tick();
-        self.sim.sample(&mut self.balls);
         let now = Instant::now();
+        self.engine.tick(now - self.last_tick);
+        self.last_tick = now;
+        self.engine.sample(&mut self.balls);
         if self.report.key_start.is_none() {
             self.report.key_start = self.balls.iter().find(|b| b.kind == BallKind::Key).map(|b| b.position.to_array());
         }
@@ -579,10 +592,10 @@ impl App {
             }
         }
         self.readouts.balls = self.balls.len() + self.grab.is_some() as usize;
-        self.readouts.paused = self.sim.is_paused();
-        self.readouts.engine = Some(self.sim.kind());
+        self.readouts.paused = self.engine.is_paused();
+        self.readouts.engine = Some(self.engine.kind());
         if now - self.last_rate >= Duration::from_millis(500) {
-            self.readouts.sim_rate = self.sim.rate();
+            self.readouts.sim_rate = self.engine.rate();
             self.last_rate = now;
         }
         if now - self.last_diagnostics >= Duration::from_millis(100) {
@@ -615,8 +628,8 @@ impl App {
         for b in &self.balls {
             bodies.push(*b);
         }
-        let effects = self.sim.effects();
-        let walls = self.sim.wall_impulses();
+        let effects = self.engine.effects();
+        let walls = self.engine.wall_impulses();
         let kinetic = kinetic_energy(bodies);
         let potential = gravity_potential_energy(bodies, &effects) + attraction_potential_energy(bodies, &effects);
         let d = Readout { kinetic, potential, total: kinetic + potential, momentum: momentum(bodies).to_array() };
@@ -652,7 +665,7 @@ impl App {
     fn fill_snapshot(&mut self) {
         let pull = self.pull_force();
         let s = &mut self.snapshot;
-        s.field = self.sim.field();
+        s.field = self.engine.field();
         s.balls.clear();
         s.overlays.clear();
         s.balls.extend(self.balls.iter().map(|b| BallSprite {

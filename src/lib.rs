@@ -7,20 +7,20 @@
 //! - [`lockstep`] — the deterministic reference engine;
 //! - [`app`] — the window: input, panel, the 15 ms sampling loop;
 //! - [`render`] — draws a snapshot with wgpu, in a window or offscreen;
-//! - [`headless`], [`frames`], [`state_file`], [`report`] — the command line's runs and files.
+//! - [`engine`] — the one interface every engine is driven through;
+//! - [`headless`] — runs without a window: the report, state files and frames.
 
 pub mod accuracy;
 pub mod app;
-pub mod frames;
+pub mod engine;
 pub mod headless;
 pub mod lockstep;
 pub mod physics;
 pub mod render;
-pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod scenes;
-pub mod state_file;
 
-pub use lockstep::{EngineError, Lockstep, StepCounters};
+pub use engine::{Engine, EngineError, EngineKind};
+pub use lockstep::{Lockstep, StepCounters};
 pub use scene::{Scene, SceneError};

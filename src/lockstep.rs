@@ -31,6 +31,7 @@ use serde::Serialize;
 
 use rayon::prelude::*;
 
+use crate::engine::EngineError;
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Drag, Effects, Field, Forces, Integrator,
     IntegratorScratch, PointForce, SpanRates, StepPolicy, WallImpulses, cap_speed, contact_ball_wall, drag_rate,
@@ -94,17 +95,6 @@ impl StepCounters {
     pub fn total(&self) -> Duration {
         self.integrate + self.broad_phase + self.contacts + self.walls
     }
-}
-
-/// Why a change to the running field was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum EngineError {
-    #[error("the field is full: {limit} balls is the limit (simulation.max-balls)")]
-    TooManyBalls { limit: usize },
-    #[error("no ball with id {0}")]
-    NoSuchBall(BallId),
-    #[error("invalid ball: {0}")]
-    InvalidBall(String),
 }
 
 /// The lockstep engine. Holds the state and only scratch memory besides.
@@ -318,14 +308,27 @@ impl Lockstep {
 
     /// Adds a ball, giving it a fresh id (its `id` field is ignored).
     pub fn add_ball(&mut self, mut ball: Ball) -> Result<BallId, EngineError> {
+        ball.id = BallId(self.next_id);
+        self.insert(ball)
+    }
+
+    /// Puts a ball back with its own id (one taken off with [`Lockstep::remove_ball`]); refused if
+    /// a ball with that id is on the field.
+    pub fn put_back(&mut self, ball: Ball) -> Result<BallId, EngineError> {
+        if self.bodies.index_of(ball.id).is_some() {
+            return Err(EngineError::IdInUse(ball.id));
+        }
+        self.insert(ball)
+    }
+
+    fn insert(&mut self, ball: Ball) -> Result<BallId, EngineError> {
         if self.bodies.len() >= self.max_balls {
             return Err(EngineError::TooManyBalls { limit: self.max_balls });
         }
         if !(ball.is_finite() && ball.mass > 0.0 && ball.diameter > 0.0) {
             return Err(EngineError::InvalidBall(format!("{ball:?}")));
         }
-        ball.id = BallId(self.next_id);
-        self.next_id += 1;
+        self.next_id = self.next_id.max(ball.id.0 + 1);
         self.bodies.push(ball);
         self.forget_derived();
         Ok(ball.id)
@@ -335,6 +338,31 @@ impl Lockstep {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.forget_derived();
         Ok(self.bodies.remove(index))
+    }
+
+    /// Sets ball `id`'s velocity in place (it keeps its id and its place in the order).
+    pub fn set_velocity(&mut self, id: BallId, velocity: DVec2) -> Result<(), EngineError> {
+        let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
+        if !velocity.is_finite() {
+            return Err(EngineError::InvalidVelocity(velocity.x, velocity.y));
+        }
+        self.bodies.velocity[index] = velocity;
+        // The speeds the next split is judged by are no longer those of the last sub-step.
+        self.split_speeds = None;
+        Ok(())
+    }
+
+    /// Sets ball `id`'s mass in place (it keeps its id, place, position and velocity).
+    pub fn set_mass(&mut self, id: BallId, mass: f64) -> Result<(), EngineError> {
+        let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(EngineError::InvalidMass(mass));
+        }
+        self.bodies.mass[index] = mass;
+        self.bodies.inverse_mass[index] = 1.0 / mass;
+        // Drag rates and orbit rates depend on the mass.
+        self.forget_derived();
+        Ok(())
     }
 
     /// Removes the most recently added ball that is not the key ball.

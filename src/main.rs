@@ -5,11 +5,11 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::Context;
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 
-use ballfield::app::{self, AppOptions, EngineKind};
-use ballfield::frames::{self, FrameOptions};
-use ballfield::headless::{self, Engine, HeadlessOptions, RunLength};
+use ballfield::EngineKind;
+use ballfield::app::{self, AppOptions};
+use ballfield::headless::{self, FrameOptions, HeadlessOptions, RunLength};
 use ballfield::physics::Integrator;
 use ballfield::scenes;
 
@@ -33,9 +33,9 @@ struct Cli {
 struct PlayArgs {
     /// Engine of the window.
     #[arg(long = "engine", value_enum, default_value = "threaded", value_name = "ENGINE")]
-    play_engine: EngineArg,
+    play_engine: EngineKind,
     /// How often the window samples the field and redraws (e.g. 15ms, 0.02s).
-    #[arg(long, value_name = "T", default_value = "15ms", value_parser = frames::parse_interval)]
+    #[arg(long, value_name = "T", default_value = "15ms", value_parser = parse_interval)]
     sample_every: f64,
     /// Close the window by itself after this many seconds.
     #[arg(long, value_name = "S", value_parser = positive_seconds)]
@@ -45,7 +45,7 @@ struct PlayArgs {
     #[arg(long = "report", value_name = "F.json")]
     play_report: Option<PathBuf>,
     /// Window size in pixels, WIDTHxHEIGHT [default: the field at 10 px/m and the panel].
-    #[arg(long = "size", value_name = "WxH", value_parser = frames::parse_size)]
+    #[arg(long = "size", value_name = "WxH", value_parser = parse_size)]
     window_size: Option<(u32, u32)>,
     /// Start with the panel hidden (Tab shows it).
     #[arg(long)]
@@ -58,14 +58,6 @@ enum Command {
     Headless(HeadlessArgs),
     /// Measure each integrator's error against exact answers and the time it costs.
     Accuracy(AccuracyArgs),
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum EngineArg {
-    /// The deterministic fixed-step engine.
-    Lockstep,
-    /// One thread per ball; --duration is wall-clock seconds.
-    Threaded,
 }
 
 #[derive(Args, Debug)]
@@ -95,8 +87,9 @@ struct HeadlessArgs {
     /// explicit-euler, semi-implicit-euler, leapfrog, rk4 or yoshida4 (overrides the scene's).
     #[arg(long, value_name = "NAME", value_parser = integrator)]
     integrator: Option<Integrator>,
+    /// Engine of the run (threaded: --duration is wall-clock seconds).
     #[arg(long, value_enum, default_value = "lockstep")]
-    engine: EngineArg,
+    engine: EngineKind,
     /// Threads the lockstep engine shares its phases over [default: every core]. The result is
     /// the same to the bit for any number.
     #[arg(long, value_name = "N", value_parser = thread_count, allow_negative_numbers = true)]
@@ -115,10 +108,10 @@ struct HeadlessArgs {
     frames: Option<PathBuf>,
     /// Time between frames: simulated time for lockstep, wall-clock time for threaded
     /// (e.g. 15ms, 0.5s; a bare number is seconds).
-    #[arg(long, value_name = "T", default_value = "15ms", value_parser = frames::parse_interval, requires = "frames")]
+    #[arg(long, value_name = "T", default_value = "15ms", value_parser = parse_interval, requires = "frames")]
     frame_every: f64,
     /// Frame size in pixels, WIDTHxHEIGHT [default: the field at 10 px/m].
-    #[arg(long, value_name = "WxH", value_parser = frames::parse_size, requires = "frames")]
+    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "frames")]
     size: Option<(u32, u32)>,
     /// Print nothing but errors.
     #[arg(long, short)]
@@ -132,6 +125,43 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
     } else {
         Err(format!("`{s}` must be a finite number of seconds greater than zero"))
     }
+}
+
+/// Parses a time: `15ms`, `0.5s` or `0.5` (seconds); finite, more than 0 and at most an hour.
+fn parse_interval(s: &str) -> Result<f64, String> {
+    let t = s.trim();
+    let (number, unit) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, 1.0)
+    };
+    let v: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a time: write e.g. `15ms`, `0.5s` or `0.5` (seconds)"))?;
+    let seconds = v * unit;
+    if seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0 {
+        Ok(seconds)
+    } else {
+        Err(format!("`{s}` must be more than 0 and at most an hour"))
+    }
+}
+
+/// Largest side of a frame or window accepted on the command line.
+const MAX_SIDE: u32 = 8192;
+
+/// Parses `WxH`: two whole numbers of pixels from 1 to [`MAX_SIDE`].
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}` is not a size: write WIDTHxHEIGHT in pixels, e.g. 1280x720");
+    let (w, h) = s.trim().split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(format!("`{s}`: each side must be from 1 to {MAX_SIDE} pixels"));
+    }
+    Ok((w, h))
 }
 
 /// At most this many steps in one run (a typo such as `--duration 1e300` would never end).
@@ -207,10 +237,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let options = AppOptions {
                 scene_name: cli.scene.clone(),
                 scene,
-                engine: match p.play_engine {
-                    EngineArg::Lockstep => EngineKind::Lockstep,
-                    EngineArg::Threaded => EngineKind::Threaded,
-                },
+                engine: p.play_engine,
                 sample_every: Duration::from_secs_f64(p.sample_every),
                 exit_after: p.exit_after.map(Duration::from_secs_f64),
                 report: p.play_report,
@@ -238,42 +265,40 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 length,
                 dt: args.dt,
                 integrator: args.integrator,
-                engine: match args.engine {
-                    EngineArg::Lockstep => Engine::Lockstep,
-                    EngineArg::Threaded => Engine::Threaded,
-                },
+                engine: args.engine,
                 state_in: args.state_in,
                 state_out: args.state_out,
                 threads: args.threads,
+                frames: args.frames.clone().map(|dir| FrameOptions { dir, every: args.frame_every, size: args.size }),
             };
-            let report = match &args.frames {
-                None => headless::run(&scene, &options)?,
-                Some(dir) => {
-                    let frame_options = FrameOptions { dir: dir.clone(), every: args.frame_every, size: args.size };
-                    let (report, written) = frames::run_with_frames(&scene, &options, &frame_options)?;
-                    if !args.quiet {
-                        println!(
-                            "frames       {} of {}x{} in {} ({} skipped), {:.1} ms each to draw and read back on {}",
-                            written.frames,
-                            written.width,
-                            written.height,
-                            dir.display(),
-                            written.skipped,
-                            written.render_seconds * 1e3,
-                            written.adapter
-                        );
-                    }
-                    report
+            let outcome = headless::run(&scene, &options)?;
+            // Every output that can be written is written before any failure is reported.
+            let report_written = match &args.report {
+                Some(path) => {
+                    serde_json::to_string_pretty(&outcome.report).map_err(anyhow::Error::from).and_then(|json| {
+                        std::fs::write(path, json + "\n")
+                            .with_context(|| format!("--report {}: cannot write", path.display()))
+                    })
                 }
+                None => Ok(()),
             };
-            if let Some(path) = &args.report {
-                let json = serde_json::to_string_pretty(&report)?;
-                std::fs::write(path, json + "\n")
-                    .with_context(|| format!("--report {}: cannot write", path.display()))?;
-            }
             if !args.quiet {
-                print!("{}", report.summary());
+                if let (Some(written), Some(dir)) = (&outcome.frames, &args.frames) {
+                    println!(
+                        "frames       {} of {}x{} in {} ({} skipped), {:.1} ms each to draw and read back on {}",
+                        written.frames,
+                        written.width,
+                        written.height,
+                        dir.display(),
+                        written.skipped,
+                        written.render_seconds * 1e3,
+                        written.adapter
+                    );
+                }
+                print!("{}", outcome.report.summary());
             }
+            outcome.state_out?;
+            report_written?;
         }
         Some(Command::Accuracy(args)) if args.threaded => {
             ballfield::accuracy::run_threaded_command(&args.out, args.quick)?
@@ -281,4 +306,35 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Accuracy(args)) => ballfield::accuracy::run_command(&args.out, args.quick)?,
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_well_formed() {
+        // clap's own consistency checks (conflicting or unknown argument references, duplicate
+        // names): seen to fail with `requires = "framez"` on --frame-every.
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn intervals() {
+        assert_eq!(parse_interval("15ms"), Ok(0.015));
+        assert_eq!(parse_interval("0.5s"), Ok(0.5));
+        assert_eq!(parse_interval("2"), Ok(2.0));
+        for bad in ["abc", "", "0", "-1ms", "nan", "inf", "1e9"] {
+            assert!(parse_interval(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("1280x720"), Ok((1280, 720)));
+        for bad in ["0x5", "5x0", "x", "12", "1280x", "-1x5", "99999x5", "axb"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
 }

@@ -13,10 +13,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
+use ballfield::headless::parse_state;
 use ballfield::physics::Field;
 use ballfield::scene::{Origin, Scene};
 use ballfield::scenes::BUILTIN;
-use ballfield::state_file::parse_state;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers.

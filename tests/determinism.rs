@@ -4,8 +4,8 @@
 mod common;
 
 use ballfield::Lockstep;
+use ballfield::headless::{parse_state, write_state};
 use ballfield::scenes;
-use ballfield::state_file::{parse_state, write_state};
 
 #[test]
 fn two_runs_of_the_same_scene_hash_identically() {

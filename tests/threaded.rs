@@ -6,9 +6,10 @@ mod common;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use ballfield::EngineError;
 use ballfield::Scene;
 use ballfield::physics::{Ball, BallId, BallKind, Field, measure};
-use ballfield::runtime::{Runtime, RuntimeConfig, RuntimeError, momentum_of, wait_until};
+use ballfield::runtime::{Runtime, RuntimeConfig, momentum_of, wait_until};
 use ballfield::scene::Origin;
 use ballfield::scenes;
 use glam::DVec2;
@@ -156,7 +157,7 @@ fn add_remove_storm_leaves_exactly_the_expected_balls() {
                         };
                         match rt.add_ball(ball) {
                             Ok(id) => mine.push(id),
-                            Err(RuntimeError::TooManyBalls { .. }) => {}
+                            Err(EngineError::TooManyBalls { .. }) => {}
                             Err(e) => panic!("op {op}: {e}"),
                         }
                     } else {
@@ -190,14 +191,22 @@ fn the_ball_limit_is_an_error_not_a_crash() {
     let _serial = serial();
     let s = scene("name = \"limit\"\n[simulation]\nmax-balls = 3\n");
     let rt = Runtime::start(&s, RuntimeConfig { max_balls: 3, ..RuntimeConfig::default() }).unwrap();
-    for _ in 0..3 {
-        rt.add_ball_at_free_spot(1.0, 1.0).unwrap();
+    let at = |k: u32| Ball {
+        id: BallId(0),
+        kind: BallKind::Ball,
+        position: DVec2::new(5.0 + 5.0 * k as f64, 10.0),
+        velocity: DVec2::ZERO,
+        mass: 1.0,
+        diameter: 1.0,
+    };
+    for k in 0..3 {
+        rt.add_ball(at(k)).unwrap();
     }
-    assert_eq!(rt.add_ball_at_free_spot(1.0, 1.0), Err(RuntimeError::TooManyBalls { limit: 3 }));
+    assert_eq!(rt.add_ball(at(3)), Err(EngineError::TooManyBalls { limit: 3 }));
     assert_eq!(rt.ball_count(), 3);
     assert!(rt.remove_last().is_some());
-    assert!(rt.add_ball_at_free_spot(1.0, 1.0).is_ok(), "a freed place can be used again");
-    assert!(matches!(rt.remove_ball(BallId(999)), Err(RuntimeError::NoSuchBall(_))));
+    assert!(rt.add_ball(at(4)).is_ok(), "a freed place can be used again");
+    assert!(matches!(rt.remove_ball(BallId(999)), Err(EngineError::NoSuchBall(_))));
 }
 
 #[test]

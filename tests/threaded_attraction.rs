@@ -5,8 +5,9 @@
 
 use std::time::Duration;
 
+use ballfield::EngineKind;
 use ballfield::Scene;
-use ballfield::headless::{Engine, HeadlessOptions, RunLength};
+use ballfield::headless::{HeadlessOptions, RunLength};
 use ballfield::physics::{Ball, BallId, BallKind, TREE_MIN_BALLS};
 use ballfield::runtime::{Runtime, RuntimeConfig, RuntimeStats, wait_until};
 use ballfield::scene::Origin;
@@ -132,12 +133,13 @@ fn the_report_names_the_tree_and_its_figures() {
         length: RunLength::Duration(0.5),
         dt: None,
         integrator: None,
-        engine: Engine::Threaded,
+        engine: EngineKind::Threaded,
         state_in: None,
         state_out: None,
         threads: None,
+        frames: None,
     };
-    let report = ballfield::headless::run(&gas(TREE_MIN_BALLS, true), &options).unwrap();
+    let report = ballfield::headless::run(&gas(TREE_MIN_BALLS, true), &options).unwrap().report;
     assert!(report.active_effects.contains(&"attraction (tree)".to_string()), "{:?}", report.active_effects);
     let t = report.runtime.as_ref().unwrap();
     assert!(t.stats.tree_builds > 0 && t.stats.tree_builds_per_second > 0.0);
@@ -147,7 +149,7 @@ fn the_report_names_the_tree_and_its_figures() {
         let m = report.memory.expect("memory is measured on Linux");
         assert!(m.rss_peak_bytes > 0 && m.bytes_per_ball > 0.0);
     }
-    let report = ballfield::headless::run(&gas(TREE_MIN_BALLS - 1, true), &options).unwrap();
+    let report = ballfield::headless::run(&gas(TREE_MIN_BALLS - 1, true), &options).unwrap().report;
     assert!(report.active_effects.contains(&"attraction (direct)".to_string()), "{:?}", report.active_effects);
 }
 

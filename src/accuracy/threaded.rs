@@ -15,8 +15,8 @@ use glam::DVec2;
 
 use super::analytic::TwoBody;
 use super::{AccuracyError, Kind, PROBLEMS};
+use crate::engine::{Engine, ThreadedEngine};
 use crate::physics::{Ball, BallId, BallKind, Bodies};
-use crate::runtime::{Runtime, RuntimeConfig};
 
 /// One threaded run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,18 +94,22 @@ fn run_one(scene: &crate::scene::Scene, ball_cycle: Duration, seconds: f64) -> R
     let g = scene.effects.attraction.map(|a| a.g_constant).unwrap_or(0.0);
     let exact = pair_orbit(&Bodies::from_balls(&scene.balls), g)
         .ok_or_else(|| AccuracyError::Problem("the Kepler pair is not bound".into()))?;
-    let config = RuntimeConfig { ball_cycle, max_balls: scene.max_balls, ..RuntimeConfig::default() };
-    let runtime = Runtime::start(scene, config).map_err(|e| AccuracyError::Problem(e.to_string()))?;
+    let mut scene = scene.clone();
+    scene.ball_cycle = ball_cycle.as_secs_f64();
+    let mut engine = ThreadedEngine::start(&scene).map_err(|e| AccuracyError::Problem(e.to_string()))?;
     let cpu = ProcessTime::now();
-    let clock = Instant::now();
-    std::thread::sleep(Duration::from_secs_f64(seconds));
-    runtime.pause();
-    let wall_seconds = clock.elapsed().as_secs_f64();
-    std::thread::sleep(ball_cycle * 3 + Duration::from_millis(5));
+    engine.advance_to(seconds);
+    let quiet = Instant::now();
+    engine.quiesce();
+    // The balls stop within the quiescing wait: the end state is at this simulated instant.
+    let wall_seconds = engine.time();
     let cpu_seconds = cpu.elapsed().as_secs_f64();
-    let stats = runtime.stats();
-    let bodies = runtime.bodies();
-    let report = runtime.shutdown();
+    let quiet_seconds = quiet.elapsed().as_secs_f64();
+    let stats = engine.figures().runtime.unwrap_or_default();
+    let mut balls = Vec::new();
+    engine.sample(&mut balls);
+    let bodies = Bodies::from_balls(&balls);
+    let report = engine.shutdown();
     if !report.panics.is_empty() {
         return Err(AccuracyError::Problem(format!("a ball thread panicked: {:?}", report.panics)));
     }
@@ -127,7 +131,7 @@ fn run_one(scene: &crate::scene::Scene, ball_cycle: Duration, seconds: f64) -> R
         wall_seconds,
         rate_median: stats.ball_rate_median,
         rate_min: stats.ball_rate_min,
-        cores_used: cpu_seconds / (wall_seconds + (ball_cycle * 3).as_secs_f64()),
+        cores_used: cpu_seconds / (wall_seconds + quiet_seconds),
         energy_drift,
         shape_error,
         position_error,

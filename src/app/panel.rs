@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 
 use egui::{Color32, RichText};
 
-use super::sim::EngineKind;
+use crate::engine::EngineKind;
 use crate::scenes::BUILTIN;
 
 /// What the user asked for, by key, mouse or panel.

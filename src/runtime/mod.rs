@@ -37,24 +37,11 @@ pub use message::Message;
 pub use shared::{Params, RuntimeConfig};
 pub use table::{BallRecord, BallTable};
 
+use crate::engine::EngineError;
 use crate::physics::{Ball, BallId, BallKind, Bodies, Effects, Field, Integrator, WallImpulses};
 use crate::scene::Scene;
 use monitor::Inboxes;
 use shared::Shared;
-
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RuntimeError {
-    #[error("the field is full: {limit} balls is the limit (simulation.max-balls)")]
-    TooManyBalls { limit: usize },
-    #[error("no ball with id {0}")]
-    NoSuchBall(BallId),
-    #[error("invalid ball: {0}")]
-    InvalidBall(String),
-    #[error("no free spot on the field for a ball of diameter {0} m")]
-    NoFreeSpot(f64),
-    #[error("could not start a thread: {0}")]
-    Spawn(String),
-}
 
 struct Handle {
     id: BallId,
@@ -80,7 +67,6 @@ struct Registry {
     retired: Retired,
     /// Messages of ball threads that panicked, as reported when they were joined.
     panics: Vec<String>,
-    rng: u64,
 }
 
 /// Figures the runtime measured about itself.
@@ -139,7 +125,6 @@ pub struct Runtime {
     inboxes: Inboxes,
     monitor: Mutex<Option<JoinHandle<()>>>,
     started: Instant,
-    seed: u64,
 }
 
 fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -154,7 +139,7 @@ fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
 
 impl Runtime {
     /// Starts a thread for every ball of `scene` and the collision monitor.
-    pub fn start(scene: &Scene, config: RuntimeConfig) -> Result<Runtime, RuntimeError> {
+    pub fn start(scene: &Scene, config: RuntimeConfig) -> Result<Runtime, EngineError> {
         let config = RuntimeConfig { max_balls: config.max_balls.max(scene.balls.len()), ..config };
         let params =
             Params { field: scene.field, effects: scene.effects, integrator: scene.integrator, time_scale: 1.0 };
@@ -166,18 +151,16 @@ impl Runtime {
                 next_id: 0,
                 retired: Retired::default(),
                 panics: Vec::new(),
-                rng: scene.seed ^ 0x5DEE_CE66_D1CE_4E5B,
             }),
             inboxes: Arc::new(RwLock::new(vec![None; config.max_balls])),
             monitor: Mutex::new(None),
             started: Instant::now(),
-            seed: scene.seed,
         };
         let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
         let monitor = std::thread::Builder::new()
             .name("collision-monitor".into())
             .spawn(move || monitor::run_monitor(shared, inboxes))
-            .map_err(|e| RuntimeError::Spawn(e.to_string()))?;
+            .map_err(|e| EngineError::Spawn(e.to_string()))?;
         *runtime.monitor.lock() = Some(monitor);
         // The monitor first: spawning a thousand ball threads on a busy machine takes a while,
         // and the balls already running must not go unwatched meanwhile.
@@ -197,46 +180,27 @@ impl Runtime {
     }
 
     /// Adds a ball (its `id` is replaced by a fresh one) and starts its thread.
-    pub fn add_ball(&self, ball: Ball) -> Result<BallId, RuntimeError> {
+    pub fn add_ball(&self, ball: Ball) -> Result<BallId, EngineError> {
         self.insert(ball, None)
     }
 
-    /// Adds a ball of the given size at a free spot, at rest.
-    pub fn add_ball_at_free_spot(&self, mass: f64, diameter: f64) -> Result<BallId, RuntimeError> {
-        let field = self.params().field;
-        let r = 0.5 * diameter;
-        if !(diameter > 0.0 && diameter <= field.width.min(field.height)) {
-            return Err(RuntimeError::InvalidBall(format!("diameter {diameter}")));
+    /// Puts a ball back with its own id (one taken off with [`Runtime::remove_ball`]) and starts
+    /// its thread; refused if a ball with that id is on the field.
+    pub fn put_back(&self, ball: Ball) -> Result<BallId, EngineError> {
+        if self.registry.lock().balls.iter().any(|h| h.id == ball.id) {
+            return Err(EngineError::IdInUse(ball.id));
         }
-        let balls = self.snapshot();
-        for _ in 0..1000 {
-            let (u, v) = {
-                let mut reg = self.registry.lock();
-                (next_uniform(&mut reg.rng), next_uniform(&mut reg.rng))
-            };
-            let p = DVec2::new(r + u * (field.width - diameter), r + v * (field.height - diameter));
-            if balls.iter().all(|b| b.ball.position.distance(p) >= b.ball.radius() + r) {
-                return self.add_ball(Ball {
-                    id: BallId(0),
-                    kind: BallKind::Ball,
-                    position: p,
-                    velocity: DVec2::ZERO,
-                    mass,
-                    diameter,
-                });
-            }
-        }
-        Err(RuntimeError::NoFreeSpot(diameter))
+        self.insert(ball, Some(ball.id))
     }
 
-    fn insert(&self, mut ball: Ball, keep_id: Option<BallId>) -> Result<BallId, RuntimeError> {
+    fn insert(&self, mut ball: Ball, keep_id: Option<BallId>) -> Result<BallId, EngineError> {
         let field = self.params().field;
         if !(ball.is_finite()
             && ball.mass > 0.0
             && ball.diameter > 0.0
             && ball.diameter <= field.width.min(field.height))
         {
-            return Err(RuntimeError::InvalidBall(format!("{ball:?}")));
+            return Err(EngineError::InvalidBall(format!("{ball:?}")));
         }
         let r = ball.radius();
         ball.position.x = ball.position.x.clamp(r, field.width - r);
@@ -245,7 +209,7 @@ impl Runtime {
         self.reap(&mut reg);
         let limit = self.shared.config.max_balls;
         if reg.balls.len() >= limit {
-            return Err(RuntimeError::TooManyBalls { limit });
+            return Err(EngineError::TooManyBalls { limit });
         }
         ball.id = keep_id.unwrap_or(BallId(reg.next_id));
         reg.next_id = reg.next_id.max(ball.id.0 + 1);
@@ -282,7 +246,7 @@ impl Runtime {
                 self.inboxes.write()[slot] = None;
                 self.shared.table.clear(slot);
                 reg.free_slots.insert(slot);
-                Err(RuntimeError::Spawn(e.to_string()))
+                Err(EngineError::Spawn(e.to_string()))
             }
         }
     }
@@ -301,7 +265,9 @@ impl Runtime {
     }
 
     /// Stops (unless already dead), joins and forgets one ball.
-    fn finish(&self, reg: &mut Registry, h: Handle, stop: bool) {
+    /// Returns the ball as its thread last published it (None if its slot was already cleared: it
+    /// panicked).
+    fn finish(&self, reg: &mut Registry, h: Handle, stop: bool) -> Option<Ball> {
         // No new contact message can be sent once the inbox is gone from the monitor's list.
         self.inboxes.write()[h.slot] = None;
         if stop {
@@ -309,7 +275,8 @@ impl Runtime {
         }
         drop(h.inbox);
         let joined = h.thread.join();
-        if let Some(last) = self.shared.table.read(h.slot) {
+        let last = self.shared.table.read(h.slot);
+        if let Some(last) = &last {
             reg.retired.applied += last.applied;
             let w = &mut reg.retired.walls;
             w.left += last.wall_impulses.left;
@@ -325,25 +292,38 @@ impl Runtime {
         // The thread is joined: the runtime is the slot's only writer again.
         self.shared.table.clear(h.slot);
         reg.free_slots.insert(h.slot);
+        last.map(|r| r.ball)
     }
 
-    /// Removes a ball by id and joins its thread.
-    pub fn remove_ball(&self, id: BallId) -> Result<(), RuntimeError> {
+    /// Removes a ball by id, joins its thread and returns the ball as it last was.
+    pub fn remove_ball(&self, id: BallId) -> Result<Ball, EngineError> {
         let mut reg = self.registry.lock();
-        let k = reg.balls.iter().position(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
+        let k = reg.balls.iter().position(|h| h.id == id).ok_or(EngineError::NoSuchBall(id))?;
         let h = reg.balls.remove(k);
-        self.finish(&mut reg, h, true);
-        Ok(())
+        // A thread that panicked has cleared its slot: the ball is gone either way.
+        self.finish(&mut reg, h, true).ok_or(EngineError::NoSuchBall(id))
     }
 
-    /// Removes the most recently added ball that is not the key ball.
-    pub fn remove_last(&self) -> Option<BallId> {
+    /// Removes the most recently added ball that is not the key ball and returns it.
+    pub fn remove_last(&self) -> Option<Ball> {
         let mut reg = self.registry.lock();
         let k = reg.balls.iter().rposition(|h| h.kind != BallKind::Key)?;
         let h = reg.balls.remove(k);
-        let id = h.id;
-        self.finish(&mut reg, h, true);
-        Some(id)
+        self.finish(&mut reg, h, true)
+    }
+
+    /// The id of the key ball, if there is one.
+    pub fn key_ball(&self) -> Option<BallId> {
+        self.registry.lock().balls.iter().find(|h| h.kind == BallKind::Key).map(|h| h.id)
+    }
+
+    /// Sends `message` to ball `id`'s thread.
+    fn send_to(&self, id: BallId, message: Message) -> Result<(), EngineError> {
+        let reg = self.registry.lock();
+        let h = reg.balls.iter().find(|h| h.id == id).ok_or(EngineError::NoSuchBall(id))?;
+        // Fails only if the thread is gone (it panicked); the next reap reports it.
+        let _ = h.inbox.send(message);
+        Ok(())
     }
 
     fn send_to_key(&self, message: Message) {
@@ -358,18 +338,20 @@ impl Runtime {
         self.send_to_key(Message::Pull(force));
     }
 
-    pub fn set_key_mass(&self, mass: f64) {
-        if mass.is_finite() && mass > 0.0 {
-            self.send_to_key(Message::SetMass(mass));
+    /// Sets ball `id`'s mass, kg, in place (the ball keeps its id, position and velocity).
+    pub fn set_mass(&self, id: BallId, mass: f64) -> Result<(), EngineError> {
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(EngineError::InvalidMass(mass));
         }
+        self.send_to(id, Message::SetMass(mass))
     }
 
-    /// Sets a ball's velocity (the mouse's throw). The only absolute change a ball accepts.
-    pub fn throw(&self, id: BallId, velocity: DVec2) -> Result<(), RuntimeError> {
-        let reg = self.registry.lock();
-        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
-        let _ = h.inbox.send(Message::Throw(velocity));
-        Ok(())
+    /// Sets ball `id`'s velocity (the mouse's throw): the only absolute change a ball accepts.
+    pub fn set_velocity(&self, id: BallId, velocity: DVec2) -> Result<(), EngineError> {
+        if !velocity.is_finite() {
+            return Err(EngineError::InvalidVelocity(velocity.x, velocity.y));
+        }
+        self.send_to(id, Message::Throw(velocity))
     }
 
     pub fn set_effects(&self, effects: Effects) {
@@ -507,20 +489,14 @@ impl Runtime {
 
     /// Test hook: makes a ball's thread panic.
     #[doc(hidden)]
-    pub fn inject_panic(&self, id: BallId) -> Result<(), RuntimeError> {
-        let reg = self.registry.lock();
-        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
-        let _ = h.inbox.send(Message::Panic);
-        Ok(())
+    pub fn inject_panic(&self, id: BallId) -> Result<(), EngineError> {
+        self.send_to(id, Message::Panic)
     }
 
     /// Test hook: stalls a ball's thread for `duration` (see [`Message::Stall`]).
     #[doc(hidden)]
-    pub fn inject_stall(&self, id: BallId, duration: Duration) -> Result<(), RuntimeError> {
-        let reg = self.registry.lock();
-        let h = reg.balls.iter().find(|h| h.id == id).ok_or(RuntimeError::NoSuchBall(id))?;
-        let _ = h.inbox.send(Message::Stall(duration));
-        Ok(())
+    pub fn inject_stall(&self, id: BallId, duration: Duration) -> Result<(), EngineError> {
+        self.send_to(id, Message::Stall(duration))
     }
 
     /// Stops every thread and joins it: the monitor first (so no message is sent to a ball that
@@ -544,27 +520,12 @@ impl Runtime {
         }
         ShutdownReport { joined, panics: reg.panics.clone(), seconds: t0.elapsed().as_secs_f64() }
     }
-
-    /// The seed the runtime places new balls with.
-    pub fn seed(&self) -> u64 {
-        self.seed
-    }
 }
 
 impl Drop for Runtime {
     fn drop(&mut self) {
         self.shutdown();
     }
-}
-
-/// A uniform number in [0, 1) from a splitmix64 state (free-spot placement; the window's too).
-pub(crate) fn next_uniform(state: &mut u64) -> f64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// Convenience for tests and reports: total momentum of a snapshot.

@@ -1,0 +1,281 @@
+//! The threaded runtime behind [`Engine`]: its balls move by themselves, on their own threads;
+//! the interface keeps the simulated clock and turns commands into the runtime's messages.
+
+use std::time::{Duration, Instant};
+
+use glam::DVec2;
+
+use super::{Engine, EngineError, EngineFigures, EngineKind, Placement, Shutdown, admit, check_mass, check_velocity};
+use crate::physics::{AttractionMethod, Ball, BallId, Diagnostics, Effects, Field, Integrator, WallImpulses, measure};
+use crate::runtime::{BallRecord, Runtime, RuntimeConfig};
+use crate::scene::Scene;
+
+/// The runtime configuration a scene asks for. `BALLFIELD_BALL_WAIT=sleep` makes the ball threads
+/// always sleep between cycles, never yield (to measure what yielding gains).
+pub fn runtime_config(scene: &Scene) -> RuntimeConfig {
+    RuntimeConfig {
+        ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
+        max_balls: scene.max_balls,
+        yield_when_crowded: std::env::var("BALLFIELD_BALL_WAIT").map_or(true, |v| v != "sleep"),
+        ..RuntimeConfig::default()
+    }
+}
+
+/// The simulated clock of a runtime whose balls run in wall-clock time times the time scale.
+#[derive(Clone, Copy, Debug)]
+struct Clock {
+    /// Simulated seconds up to `since`.
+    banked: f64,
+    /// When the clock last started running (`None`: stopped, paused).
+    since: Option<Instant>,
+    scale: f64,
+}
+
+impl Clock {
+    fn now(&self) -> f64 {
+        self.banked + self.since.map_or(0.0, |s| s.elapsed().as_secs_f64() * self.scale)
+    }
+
+    /// Banks the time run so far and goes on (`running`) or stops.
+    fn rebase(&mut self, running: bool) {
+        self.banked = self.now();
+        self.since = running.then(Instant::now);
+    }
+}
+
+/// [`Runtime`] behind the interface.
+pub struct ThreadedEngine {
+    runtime: Runtime,
+    clock: Clock,
+    /// A single step in progress: pause again at this instant.
+    step_until: Option<Instant>,
+    cycle: Duration,
+    placement: Placement,
+    last_rate: f64,
+    /// The table as last read (kept for its memory).
+    records: Vec<BallRecord>,
+}
+
+impl ThreadedEngine {
+    /// Starts a thread for every ball of `scene` and the collision monitor. The clock starts
+    /// once every thread is running.
+    pub fn start(scene: &Scene) -> Result<ThreadedEngine, EngineError> {
+        let runtime = Runtime::start(scene, runtime_config(scene))?;
+        Ok(ThreadedEngine {
+            runtime,
+            clock: Clock { banked: 0.0, since: Some(Instant::now()), scale: 1.0 },
+            step_until: None,
+            cycle: scene.ball_cycle_duration(),
+            placement: Placement::new(scene.seed),
+            last_rate: 0.0,
+            records: Vec::new(),
+        })
+    }
+
+    /// The runtime itself (tests and the threaded accuracy report read its table and stats).
+    pub fn runtime(&self) -> &Runtime {
+        &self.runtime
+    }
+
+    fn pause_now(&mut self) {
+        self.runtime.pause();
+        self.clock.rebase(false);
+    }
+
+    fn resume_now(&mut self) {
+        self.runtime.resume();
+        self.clock.rebase(true);
+    }
+}
+
+impl Engine for ThreadedEngine {
+    fn kind(&self) -> EngineKind {
+        EngineKind::Threaded
+    }
+
+    fn time(&self) -> f64 {
+        self.clock.now()
+    }
+
+    fn advance_to(&mut self, t: f64) {
+        if self.runtime.is_paused() || self.clock.scale <= 0.0 {
+            return;
+        }
+        let left = (t - self.clock.now()) / self.clock.scale;
+        if left > 0.0 {
+            std::thread::sleep(Duration::from_secs_f64(left));
+        }
+    }
+
+    fn advance_steps(&mut self, n: u64) {
+        let t = self.clock.now() + n as f64 * self.cycle.as_secs_f64();
+        self.advance_to(t);
+    }
+
+    fn tick(&mut self, _wall: Duration) {
+        if let Some(t) = self.step_until
+            && Instant::now() >= t
+        {
+            self.pause_now();
+            self.step_until = None;
+        }
+    }
+
+    fn set_paused(&mut self, paused: bool) {
+        self.step_until = None;
+        if paused { self.pause_now() } else { self.resume_now() }
+    }
+
+    fn is_paused(&self) -> bool {
+        // A single step in progress is still "paused" to the player: it pauses by itself.
+        self.runtime.is_paused() || self.step_until.is_some()
+    }
+
+    fn single_step(&mut self, span: Duration) {
+        if self.runtime.is_paused() && self.step_until.is_none() {
+            self.resume_now();
+            self.step_until = Some(Instant::now() + span);
+        }
+    }
+
+    fn set_time_scale(&mut self, scale: f64) {
+        if scale.is_finite() && scale >= 0.0 {
+            let running = self.clock.since.is_some();
+            self.clock.rebase(running);
+            self.clock.scale = scale;
+            self.runtime.set_time_scale(scale);
+        }
+    }
+
+    fn time_scale(&self) -> f64 {
+        self.clock.scale
+    }
+
+    fn quiesce(&mut self) {
+        self.step_until = None;
+        self.pause_now();
+        // Every ball sees the flag within a cycle; three leave room for one that was preempted.
+        std::thread::sleep(self.cycle * 3);
+    }
+
+    fn sample(&mut self, out: &mut Vec<Ball>) {
+        self.runtime.snapshot_into(&mut self.records);
+        out.clear();
+        out.extend(self.records.iter().map(|r| r.ball));
+        out.sort_unstable_by_key(|b| b.id);
+    }
+
+    fn ball_count(&self) -> usize {
+        self.runtime.ball_count()
+    }
+
+    fn add_ball(&mut self, ball: Ball) -> Result<BallId, EngineError> {
+        let ball = admit(ball, &self.runtime.params().field)?;
+        self.runtime.add_ball(ball)
+    }
+
+    fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
+        self.runtime.remove_ball(id)
+    }
+
+    fn put_back(&mut self, ball: Ball) -> Result<BallId, EngineError> {
+        let ball = admit(ball, &self.runtime.params().field)?;
+        self.runtime.put_back(ball)
+    }
+
+    fn remove_last(&mut self) -> Option<Ball> {
+        self.runtime.remove_last()
+    }
+
+    fn set_velocity(&mut self, id: BallId, velocity: DVec2) -> Result<(), EngineError> {
+        self.runtime.set_velocity(id, check_velocity(velocity)?)
+    }
+
+    fn set_mass(&mut self, id: BallId, mass: f64) -> Result<(), EngineError> {
+        self.runtime.set_mass(id, check_mass(mass)?)
+    }
+
+    fn set_pull(&mut self, force: DVec2) {
+        if force.is_finite() {
+            self.runtime.set_pull(force);
+        }
+    }
+
+    fn key_ball(&self) -> Option<BallId> {
+        self.runtime.key_ball()
+    }
+
+    fn placement(&mut self) -> &mut Placement {
+        &mut self.placement
+    }
+
+    fn field(&self) -> Field {
+        self.runtime.params().field
+    }
+
+    fn effects(&self) -> Effects {
+        self.runtime.params().effects
+    }
+
+    fn set_effects(&mut self, effects: Effects) {
+        self.runtime.set_effects(effects);
+    }
+
+    fn integrator(&self) -> Integrator {
+        self.runtime.params().integrator
+    }
+
+    fn set_restitution(&mut self, walls: f64, balls: f64) {
+        self.runtime.set_restitution(walls, balls);
+    }
+
+    fn wall_impulses(&self) -> WallImpulses {
+        self.runtime.wall_impulses()
+    }
+
+    fn diagnostics(&mut self) -> Diagnostics {
+        let params = self.runtime.params();
+        measure(&self.runtime.bodies(), &params.field, &params.effects, self.runtime.wall_impulses())
+    }
+
+    fn active_effects(&self) -> Vec<String> {
+        // Attraction is summed as lockstep sums it, switched by the same rule: from the monitor's
+        // tree from TREE_MIN_BALLS balls on, directly below (the runtime's counters say which
+        // the ball cycles actually took).
+        let effects = self.runtime.params().effects;
+        let n = self.runtime.ball_count();
+        effects
+            .active_names()
+            .iter()
+            .map(|&s| match (s, &effects.attraction) {
+                ("attraction", Some(att)) => AttractionMethod::choose(n, att).label(),
+                _ => s,
+            })
+            .map(String::from)
+            .collect()
+    }
+
+    fn rate(&mut self) -> f64 {
+        self.last_rate = self.runtime.stats().ball_rate_median;
+        self.last_rate
+    }
+
+    fn figures(&mut self) -> EngineFigures {
+        let stats = self.runtime.stats();
+        EngineFigures {
+            dt: self.cycle.as_secs_f64(),
+            steps: 0,
+            rate: stats.ball_rate_median,
+            phases: None,
+            state_hash: None,
+            threads: None,
+            runtime: Some(stats),
+        }
+    }
+
+    fn shutdown(&mut self) -> Shutdown {
+        self.clock.rebase(false);
+        let report = self.runtime.shutdown();
+        Shutdown { threads_joined: report.joined, panics: report.panics, seconds: report.seconds }
+    }
+}
