@@ -94,7 +94,10 @@ impl<O: OtherBalls> BallForces<'_, O> {
                 ForcePass::Gravity(g) => acc += *g,
                 ForcePass::Drag(drag) if DRAG => {
                     let a = drag_force(v, diameter, drag) * inverse_mass;
-                    acc += cap_drag_rate(a, v, self.forces.drag_rate_limit);
+                    // Under no limit the cap is the identity: its square root is spared, as in
+                    // the whole-field pass.
+                    let limit = self.forces.drag_rate_limit;
+                    acc += if limit.is_finite() { cap_drag_rate(a, v, limit) } else { a };
                 }
                 ForcePass::Drag(_) => {}
                 ForcePass::Attraction(attraction) => {
