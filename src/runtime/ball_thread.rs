@@ -49,12 +49,11 @@ struct BallState {
 }
 
 /// What a ball thread reuses from cycle to cycle, so that a cycle allocates nothing.
-#[derive(Default)]
 struct CycleScratch {
     integrator: IntegratorScratch,
-    /// The force passes of `effects`, the very ones lockstep runs (see [`CycleScratch::refresh_forces`]).
+    /// The force passes of the parameters' effects, the very ones lockstep runs; built again only
+    /// when the parameters change (their generation moved), as building allocates.
     forces: Forces,
-    effects: Option<Effects>,
     /// The other balls, read directly from the table (attraction below TREE_MIN_BALLS).
     others: Vec<BallRecord>,
     /// The near balls of the tree snapshot, copied (attraction from TREE_MIN_BALLS on).
@@ -62,13 +61,12 @@ struct CycleScratch {
 }
 
 impl CycleScratch {
-    /// Builds the force passes for `effects` when they are not those of the last cycle (the
-    /// panel changed them, or this is the first cycle): the build allocates, a comparison does
-    /// not.
-    fn refresh_forces(&mut self, effects: &Effects) {
-        if self.effects.as_ref() != Some(effects) {
-            self.forces = Forces::new(effects);
-            self.effects = Some(*effects);
+    fn new(effects: &Effects) -> Self {
+        CycleScratch {
+            integrator: IntegratorScratch::default(),
+            forces: Forces::new(effects),
+            others: Vec::new(),
+            near: Vec::new(),
         }
     }
 }
@@ -149,7 +147,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
     // generation means the read lock below returns the parameters written before it.
     let mut generation = shared.params_generation.load(Ordering::Acquire);
-    let mut scratch = CycleScratch::default();
+    let mut scratch = CycleScratch::new(&params.effects);
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
     loop {
@@ -184,6 +182,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         if g != generation {
             generation = g;
             params = shared.params.read().clone();
+            scratch.forces = Forces::new(&params.effects);
         }
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
@@ -329,8 +328,7 @@ fn advance(
     if dt.is_nan() || dt <= 0.0 {
         return AttractionSource::Off;
     }
-    scratch.refresh_forces(&params.effects);
-    let CycleScratch { integrator, forces, others, near, .. } = scratch;
+    let CycleScratch { integrator, forces, others, near } = scratch;
     let ball = &state.ball;
     let body = BallProps { mass: ball.mass, inverse_mass: 1.0 / ball.mass, diameter: ball.diameter };
     // Gravity and the pull: the ball's uniform acceleration, for the tree split's margin and for
