@@ -5,8 +5,8 @@
 //!
 //! Why: Mesa's CPU rasterisers (lavapipe, llvmpipe) spend about a microsecond on each primitive
 //! — setup, binning, a fragment-shader call per 4×4 block touched — however few pixels it
-//! covers, so many small balls cost many times their vertex work as triangles, and nearly as
-//! much as one-pixel points. A compute shader adding every ball's pixels into a buffer with
+//! covers, so many small balls cost many times their vertex work, as triangles or as one-pixel
+//! points alike. A compute shader adding every ball's pixels into a buffer with
 //! atomics is no way out: lavapipe runs a storage-buffer atomic lane by lane. Here, four pixels
 //! of a row at a time in SIMD, band by band on rayon's threads, a pixel costs a few nanoseconds,
 //! and the copy (4 bytes a pixel, ~3.7 MB at 1280×720) is a small part of the frame. The frame
