@@ -42,21 +42,25 @@ pub enum BallPath {
     Triangles,
 }
 
-/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats. On lavapipe
-/// (1280×720, 100 and 1,000 balls of 2–64 px radius) the splat was as fast as triangles or faster
-/// up to about 32 px: a CPU rasteriser pays for every primitive and for every pixel of its
-/// fragment shader too. Beyond, a few large balls are cheaper as triangles.
+/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats. A CPU rasteriser
+/// pays for every primitive and, through its fragment shader, for every pixel a triangle covers
+/// too, so the splat is as fast as triangles or faster up to fairly large balls; beyond, a few
+/// large balls are cheaper as triangles. 16 px is half the radius at which the two measured even
+/// on lavapipe (docs/measurements.md, *Figures behind the renderer's choices*).
 pub const SPLAT_MAX_RADIUS_PX: f32 = 16.0;
 
 /// The fewest small balls for which [`BallPath::Auto`] splats. Below, a frame costs well under a
-/// millisecond either way (10–100 balls: 0.6–0.9 ms on lavapipe at 1280×720, both ways), and a
+/// millisecond either way (docs/measurements.md, *Figures behind the renderer's choices*), and a
 /// few balls on a large target are cheaper as triangles than filling and writing the whole field.
 pub const SPLAT_MIN_BALLS: usize = 100;
 
 /// How the balls of a frame were drawn (see [`BallPath`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameBalls {
+    /// Balls whose pixels the CPU computed ([`BallPath::Splat`]).
     pub splatted: usize,
+    /// Balls drawn as GPU primitives ([`BallPath::Triangles`], [`BallPath::Expanded`] or
+    /// [`BallPath::Instanced`]).
     pub primitives: usize,
 }
 
@@ -315,6 +319,7 @@ impl Renderer {
         self.format
     }
 
+    /// How balls are drawn: [`BallPath::Auto`] unless [`Self::set_ball_path`] chose another.
     pub fn ball_path(&self) -> BallPath {
         self.path
     }

@@ -12,6 +12,8 @@ use crate::physics::{Ball, BallKind, Field};
 /// Style of a ball, in the top byte of [`BallSprite::colour`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BallStyle {
+    /// An ordinary ball: its colour, with a rim about 1.5 px wide darkened by up to 35 % so that
+    /// touching balls stay apart.
     Plain = 0,
     /// The key ball: a white ring.
     Key = 1,
@@ -23,8 +25,9 @@ pub enum BallStyle {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BallSprite {
-    /// Centre, m.
+    /// Centre's x, m from the field's left wall.
     pub x: f32,
+    /// Centre's y, m from the field's floor (y up).
     pub y: f32,
     /// Radius, m.
     pub radius: f32,
@@ -57,6 +60,8 @@ impl BallSprite {
 }
 
 impl Segment {
+    /// A segment from `a` to `b` (field metres) `2 × half_width_px` pixels thick at any scale,
+    /// its ends extended by `half_width_px`; `colour` as [`Segment::colour`].
     pub fn line(a: DVec2, b: DVec2, half_width_px: f32, colour: u32) -> Segment {
         Segment { ends: [a.x as f32, a.y as f32, b.x as f32, b.y as f32], half_width: [0.0, half_width_px], colour }
     }
@@ -67,14 +72,17 @@ pub const fn rgba(r: u8, g: u8, b: u8, a: u8) -> u32 {
     (r as u32) | ((g as u32) << 8) | ((b as u32) << 16) | ((a as u32) << 24)
 }
 
-/// Colours of the picture.
+/// Colours of the picture: sRGB levels 0–255 and straight alpha packed by [`rgba`]
+/// (`0xAABBGGRR`), except [`FIELD_RGB`](palette::FIELD_RGB).
 pub mod palette {
     use super::rgba;
     /// Around the field (the letterbox).
     pub const OUTSIDE_PACKED: u32 = rgba(14, 15, 19, 255);
     /// The field (the target is cleared to it), as 0–1 sRGB values.
     pub const FIELD_RGB: [f64; 3] = [24.0 / 255.0, 28.0 / 255.0, 38.0 / 255.0];
+    /// The walls around the field.
     pub const WALL: u32 = rgba(150, 158, 176, 255);
+    /// The key ball (the one the user steers), under its white ring.
     pub const KEY_BALL: u32 = rgba(235, 82, 52, 255);
     /// Plain balls take one of these, by id.
     pub const BALLS: [u32; 6] = [
@@ -85,9 +93,15 @@ pub mod palette {
         rgba(150, 200, 90, 255),
         rgba(170, 120, 220, 255),
     ];
+    /// The velocity arrows ([`add_velocity_vectors`](super::FrameSnapshot::add_velocity_vectors)),
+    /// slightly translucent.
     pub const VELOCITY: u32 = rgba(255, 225, 120, 220);
+    /// The centre-of-mass cross ([`add_centre_of_mass`](super::FrameSnapshot::add_centre_of_mass)).
     pub const CENTRE_OF_MASS: u32 = rgba(255, 90, 200, 255);
+    /// A trace ([`add_trace`](super::FrameSnapshot::add_trace)): the key ball's red; it fades
+    /// from about this alpha at its newest point to nearly 0 at its oldest.
     pub const TRACE: u32 = rgba(235, 82, 52, 150);
+    /// The pull on the key ball ([`add_pull`](super::FrameSnapshot::add_pull)).
     pub const PULL: u32 = rgba(255, 255, 255, 230);
 }
 
@@ -112,7 +126,9 @@ pub fn with_style(colour: u32, style: BallStyle) -> u32 {
 /// keep their memory.
 #[derive(Clone, Debug, Default)]
 pub struct FrameSnapshot {
+    /// The field drawn: its size places it on the target and puts the walls around it.
     pub field: Field,
+    /// The balls, drawn in this order (later ones over earlier ones).
     pub balls: Vec<BallSprite>,
     /// Drawn over the balls.
     pub overlays: Vec<Segment>,
@@ -130,6 +146,7 @@ impl FrameSnapshot {
         }
     }
 
+    /// An empty snapshot of `field`: no balls, no overlays, the whole target.
     pub fn new(field: Field) -> Self {
         FrameSnapshot { field, ..Default::default() }
     }

@@ -5,12 +5,13 @@
 //!
 //! Why: Mesa's CPU rasterisers (lavapipe, llvmpipe) spend about a microsecond on each primitive
 //! — setup, binning, a fragment-shader call per 4×4 block touched — however few pixels it
-//! covers. 100,000 balls 1.6 px across took ~90 ms as triangles and ~60 ms as one-pixel points,
-//! while their vertex work was ~3 ms. A compute shader adding every ball's pixels into a buffer
-//! with atomics took ~30 ms: lavapipe runs a storage-buffer atomic lane by lane. Here, four
-//! pixels of a row at a time in SIMD, band by band on rayon's threads, they take a few
-//! milliseconds, and the copy (~4 MB at 1280×720) well under one. On a real GPU none of this
-//! pays: there [`super::BallPath::Auto`] draws triangles.
+//! covers, so many small balls cost many times their vertex work, as triangles or as one-pixel
+//! points alike. A compute shader adding every ball's pixels into a buffer with
+//! atomics is no way out: lavapipe runs a storage-buffer atomic lane by lane. Here, four pixels
+//! of a row at a time in SIMD, band by band on rayon's threads, a pixel costs a few nanoseconds,
+//! and the copy (4 bytes a pixel, ~3.7 MB at 1280×720) is a small part of the frame. The frame
+//! times of each way are in docs/measurements.md (*Rendering and the window*). On a real GPU
+//! none of this pays: there [`super::BallPath::Auto`] draws triangles.
 
 use rayon::prelude::*;
 
@@ -137,9 +138,10 @@ impl Splat {
     /// mapped.
     ///
     /// Why a buffer of our own, kept from frame to frame, rather than `Queue::write_texture`:
-    /// that makes a new staging buffer at every call, and on llvmpipe (GL) each was fresh memory
-    /// from the system — 4 MB of page faults a frame, about 2 ms. Mapping it again waits for the
-    /// GPU to have copied the last frame out of it, which the caller has already waited for.
+    /// that makes a new staging buffer at every call, and on llvmpipe (GL) each is fresh memory
+    /// from the system: a frame pays the page faults of all its pixels (the cost is in
+    /// docs/measurements.md, *Figures behind the renderer's choices*). Mapping it again waits for
+    /// the GPU to have copied the last frame out of it, which the caller has already waited for.
     fn mapped_staging(&mut self, device: &wgpu::Device, bytes: u64) -> Option<wgpu::Buffer> {
         if self.staging.as_ref().is_none_or(|b| b.size() < bytes) {
             self.staging = Some(device.create_buffer(&wgpu::BufferDescriptor {
@@ -225,7 +227,8 @@ impl Splat {
             }
         };
         // The bands share no pixel: they are drawn on rayon's threads, and every pixel comes out
-        // the same however they are shared (about a third off a 100,000-ball frame on 2 cores).
+        // the same however they are shared (the gain is in docs/measurements.md, *Figures behind
+        // the renderer's choices*).
         self.pixels.par_chunks_mut(BAND_ROWS * stride).enumerate().with_min_len(4).for_each(draw_band);
     }
 
