@@ -319,3 +319,18 @@ pub fn check_velocity(v: DVec2) -> Result<DVec2, EngineError> {
 pub fn clamp_restitution(e: f64, current: f64) -> f64 {
     if e.is_nan() { current } else { e.clamp(0.0, 1.0) }
 }
+
+/// Compile-time checks: an engine moves to whichever thread drives it (the window's event loop,
+/// a headless run, a test), so every engine and the boxed interface are `Send`; the threaded
+/// engine's runtime is also shared by reference across threads (its methods take `&self`), so it
+/// is `Sync` too. A field that broke either would fail to compile here, not in a caller.
+const _: () = {
+    const fn send<T: Send + ?Sized>() {}
+    const fn sync<T: Sync + ?Sized>() {}
+    send::<Box<dyn Engine>>();
+    send::<LockstepEngine>();
+    send::<ThreadedEngine>();
+    sync::<crate::runtime::Runtime>();
+    send::<EngineError>();
+    sync::<EngineError>();
+};
