@@ -55,6 +55,7 @@ pub struct BallForces<'a, O> {
     ball: BallProps,
     pull: DVec2,
     others: O,
+    drag_rate_limit: f64,
 }
 
 impl<O: OtherBalls> BallForces<'_, O> {
@@ -69,17 +70,35 @@ impl<O: OtherBalls> BallForces<'_, O> {
     /// The largest drag rate the ball at `x` moving at `v` can meet (see
     /// [`crate::physics::drag_rate_bound`]): at its speed now, or at the terminal speed gravity,
     /// attraction and the pull drive it to. 0 with drag off.
+    #[inline]
     pub fn drag_rate(&self, x: DVec2, v: DVec2) -> f64 {
         let Some(drag) = self.forces.drag() else { return 0.0 };
         drag_rate_bound(v, self.sum::<false>(x, v), self.ball.diameter, self.ball.mass, &drag)
     }
 
+    /// The same, with the drag pass's rate capped at `limit` (1/s) for this ball: the guard rail of
+    /// [`Forces::set_drag_rate_limit`], set per ball (from the step policy's
+    /// [`crate::physics::SubSteps::drag_rate_limit`]) rather than for the whole field.
+    #[inline]
+    pub fn with_drag_rate_limit(self, limit: f64) -> Self {
+        BallForces { drag_rate_limit: limit, ..self }
+    }
+
+    /// Whether no force acts on the ball at all (no pass, no pull): every integrator then reduces
+    /// to a straight drift, as lockstep's integration takes it.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.forces.is_empty() && self.pull == DVec2::ZERO
+    }
+
     /// The other balls, as given to [`Forces::on_ball`].
+    #[inline]
     pub fn others(&self) -> &O {
         &self.others
     }
 
     /// Whether the acceleration depends on velocity (drag is on).
+    #[inline]
     pub fn depends_on_velocity(&self) -> bool {
         self.forces.depends_on_velocity()
     }
@@ -89,14 +108,14 @@ impl<O: OtherBalls> BallForces<'_, O> {
     fn sum<const DRAG: bool>(&self, x: DVec2, v: DVec2) -> DVec2 {
         let BallProps { mass, inverse_mass, diameter } = self.ball;
         let mut acc = DVec2::ZERO;
-        for pass in &self.forces.passes {
+        for pass in self.forces.passes.iter() {
             match pass {
                 ForcePass::Gravity(g) => acc += *g,
                 ForcePass::Drag(drag) if DRAG => {
                     let a = drag_force(v, diameter, drag) * inverse_mass;
                     // Under no limit the cap is the identity: its square root is spared, as in
                     // the whole-field pass.
-                    let limit = self.forces.drag_rate_limit;
+                    let limit = self.drag_rate_limit;
                     acc += if limit.is_finite() { cap_drag_rate(a, v, limit) } else { a };
                 }
                 ForcePass::Drag(_) => {}
@@ -106,6 +125,45 @@ impl<O: OtherBalls> BallForces<'_, O> {
             }
         }
         acc + self.pull * inverse_mass
+    }
+}
+
+/// The passes in their order, held inline rather than behind a pointer: there are at most three
+/// (one per effect), and a ball thread reads them every cycle, after its caches have gone cold
+/// under a thousand other threads.
+#[derive(Clone, Copy, PartialEq)]
+struct PassList {
+    passes: [ForcePass; 3],
+    len: usize,
+}
+
+impl PassList {
+    /// Appends a pass (at most one per effect, so never more than there is room for).
+    fn push(&mut self, pass: ForcePass) {
+        if let Some(slot) = self.passes.get_mut(self.len) {
+            *slot = pass;
+            self.len += 1;
+        }
+    }
+}
+
+impl Default for PassList {
+    fn default() -> Self {
+        // The unused slots hold a filler, never read (see `Deref`).
+        PassList { passes: [ForcePass::Gravity(DVec2::ZERO); 3], len: 0 }
+    }
+}
+
+impl std::ops::Deref for PassList {
+    type Target = [ForcePass];
+    fn deref(&self) -> &[ForcePass] {
+        &self.passes[..self.len]
+    }
+}
+
+impl std::fmt::Debug for PassList {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
     }
 }
 
@@ -159,7 +217,7 @@ impl AttractionMethod {
 /// pass met since it was last asked for (see [`Forces::take_orbit_rate_squared`]).
 #[derive(Clone, Debug, Default)]
 pub struct Forces {
-    passes: Vec<ForcePass>,
+    passes: PassList,
     /// `None`: chosen by ball count (see [`AttractionMethod::choose`]).
     method: Option<AttractionMethod>,
     tree: BarnesHut,
@@ -177,7 +235,7 @@ pub struct Forces {
 
 impl Forces {
     pub fn new(effects: &Effects) -> Self {
-        let mut passes = Vec::new();
+        let mut passes = PassList::default();
         if let Some(g) = effects.gravity {
             passes.push(ForcePass::Gravity(g.g));
         }
@@ -192,10 +250,11 @@ impl Forces {
 
     /// A guard rail for drag too stiff for the shortest step the engine takes: the drag pass
     /// then caps each ball's drag rate (`|a_drag|/|v|`) at `limit`, so an explicit stage can stop
-    /// a ball but never throw it back faster. The engines set what the step policy says
-    /// ([`crate::physics::SubSteps::drag_rate_limit`]): `1/h` for a sub-step whose drag rate
-    /// it could not bring below `MAX_DRAG_STEP/h` (it splits down to a floor of dt/4,096 only)
-    /// and `+∞` otherwise — the default, under which the pass is exactly the plain formula.
+    /// a ball but never throw it back faster. Lockstep sets here what the step policy says
+    /// ([`crate::physics::SubSteps::drag_rate_limit`]; a ball thread sets it on its own ball,
+    /// [`BallForces::with_drag_rate_limit`]): `1/h` for a sub-step whose drag rate the policy
+    /// could not bring below `MAX_DRAG_STEP/h` (it splits down to a floor of dt/4,096 only) and
+    /// `+∞` otherwise — the default, under which the pass is exactly the plain formula.
     /// Found by tests/fuzz.rs: a 1 g ball of 1 m thrown to 1e5 m/s by a 5e5 kg grain with G = 1
     /// meets a drag rate of 2e7/s; at the floor's 0.24 µs every stage multiplied its speed by
     /// about −5 and squared it again, to infinity within one sub-step.
@@ -369,7 +428,7 @@ impl Forces {
         let n = pos.len();
         debug_assert!(vel.len() == n && acc.len() == n && props.mass.len() == n);
         acc.fill(DVec2::ZERO);
-        for &pass in &self.passes {
+        for &pass in self.passes.iter() {
             local_pass(pass, self.drag_rate_limit, props, vel, acc);
         }
         add_pull(pull, props, acc);
@@ -381,7 +440,7 @@ impl Forces {
     /// [`BallForces`].
     #[inline]
     pub fn on_ball<O: OtherBalls>(&self, ball: BallProps, pull: DVec2, others: O) -> BallForces<'_, O> {
-        BallForces { forces: self, ball, pull, others }
+        BallForces { forces: self, ball, pull, others, drag_rate_limit: self.drag_rate_limit }
     }
 
     /// The drag, of either kind.
