@@ -46,6 +46,8 @@ struct BallState {
     /// Cycles since the last flush that took attraction from the tree / read the table directly.
     tree_cycles: u64,
     direct_cycles: u64,
+    /// This ball's longest cycle so far, as `Shared::pack_cycle` packs it.
+    longest_cycle: u64,
 }
 
 /// What a ball thread reuses from cycle to cycle, so that a cycle allocates nothing.
@@ -129,6 +131,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         walls: WallImpulses::default(),
         tree_cycles: 0,
         direct_cycles: 0,
+        longest_cycle: 0,
     };
     let mut params: Params = shared.params.read().clone();
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
@@ -407,6 +410,11 @@ fn advance(
     };
     let steps = (dt / max_step).max(stiff).max(orbit).ceil().clamp(1.0, MAX_SUBSTEPS as f64);
     let h = dt / steps;
+    let packed = Shared::pack_cycle(dt, steps as u64);
+    if packed > state.longest_cycle {
+        state.longest_cycle = packed;
+        shared.longest_cycle.fetch_max(packed, Ordering::Relaxed);
+    }
     // Drag still too stiff for the shortest sub-step gets the lockstep engine's guard rail: its
     // rate capped at 1/h (see `Forces::set_drag_rate_limit`).
     let drag_limit = if drag_rate_now * h > MAX_DRAG_STEP { 1.0 / h } else { f64::INFINITY };
