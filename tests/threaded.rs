@@ -111,10 +111,10 @@ fn balls_under_gravity_and_drag_stay_finite_and_inside() {
 /// wall clock, so the run's length is not known exactly; but from rest under a constant
 /// acceleration `a = v²/(2·Δx)` whatever the time, and leapfrog keeps that exact for any steps.
 /// The runtime is paused before the pull is read back, so the ball is under the force until it
-/// stops. (Measured: a = 2.5 m/s² to 4e-13 relative, the rounding of some 500 steps of x ≈ 35 m, each
-/// worth at most 4e-15 m of the 0.31 m move: 1e-11 bounds even their sum. Seen to fail with the pull taken as an
-/// acceleration, `uniform = gravity + state.pull` in `ball_thread::advance`: a = 5 m/s²; the
-/// earlier bound, 0.05 m of a 0.3 m move, passed that.)
+/// stops. Measured: a = 2.5 m/s² to 4e-13 relative, the rounding of some 500 steps of x ≈ 35 m,
+/// each worth at most 4e-15 m of the 0.31 m move: 1e-11 bounds even their sum. Seen to fail with
+/// the pull taken as an acceleration (`uniform = gravity + state.pull` in `ball_thread::advance`):
+/// a = 5 m/s². The earlier bound, 0.05 m of a 0.3 m move, passed that build.
 #[test]
 fn the_pull_moves_the_key_ball_its_way() {
     let _serial = serial();
@@ -199,9 +199,10 @@ fn pause_stops_time_and_resume_continues() {
 /// the spike itself: a cycle at least as long as the stall (the stall sleeps inside the cycle's
 /// message handling, and the cycle is measured from the one before), split into sub-steps no
 /// longer than the runtime's `max_step` — exactly ceil(dt / max_step) of them, as nothing else
-/// here asks for more. (Measured over six runs: cycles of 0.5006–0.508 s in 251–254 sub-steps. Seen to fail with
-/// `advance` taking one step per cycle whatever its length: 1 sub-step, and the ball left the
-/// field.)
+/// here asks for more. Measured over six runs: cycles of 0.5006–0.508 s in 251–254 sub-steps.
+/// Seen to fail with `advance` taking one step per cycle whatever its length ("a 0.5013 s cycle
+/// in 1 sub-steps"); the other checks here pass that build, as leapfrog is exact under constant
+/// gravity and the wall replays the bounce along its parabola.
 #[test]
 fn a_stalled_ball_sub_steps_its_long_dt() {
     let _serial = serial();
