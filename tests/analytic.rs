@@ -15,8 +15,8 @@ fn gravity() -> Effects {
 /// Free fall from rest: y(t) = y0 − ½·g·t². Second- and higher-order integrators are exact for a
 /// constant force (to rounding); the first-order ones err by exactly their known O(dt) term.
 /// Measured: y off by at most 1.7e-10 m (3 ulp of y0 = 5e5 m) and vy by 5.1e-13 m/s, for every
-/// integrator; the bounds are about 10× that. Seen to fail with leapfrog's last half kick left
-/// out (vy off by g·dt/2 = 4.9e-3 m/s).
+/// integrator; the bounds are about 10× that. Seen to fail with Yoshida's weight w₁ rounded to 9
+/// digits, 1.35120719 (yoshida4's y off by 1.5e-7 m).
 #[test]
 fn free_fall_matches_half_g_t_squared() {
     let (y0, dt, steps) = (5.0e5, 1e-3, 2000u64);
@@ -51,7 +51,9 @@ const TERMINAL_1KG_1M: f64 = 6.586998848500079;
 /// Measured worst relative errors over the 40 samples (bounds about 10× that): rk4 5.1e-12,
 /// yoshida4 2.0e-11, leapfrog 1.9e-7 at dt = 1 ms; semi-implicit Euler 1.0e-3 at dt = 0.1 ms,
 /// its first-order term dt/t at the first sample, which the bound of 1.5e-3 follows. Seen to fail
-/// with the drag area taken as π·d² instead of π·(d/2)² (v_t halves).
+/// with the drag area taken as π·d² instead of π·(d/2)² (the crate's v_t halved, 3.29 m/s), and
+/// with Yoshida's weight w₁ rounded to 9 digits (yoshida4's worst error 7.9e-9, which the old
+/// bound, 1e-5, passed).
 #[test]
 fn drag_fall_follows_tanh_to_terminal_speed() {
     let (m, d, rho, cd) = (1.0, 1.0, 1.225, 0.47);
@@ -93,7 +95,8 @@ fn drag_fall_follows_tanh_to_terminal_speed() {
 ///
 /// Measured (bounds about 10× that): rk4 at 2,000 steps an orbit, position 1.4e-9·a and energy
 /// 2.9e-10; yoshida4 at 2,000, 6.4e-10·a and 1.5e-10; leapfrog at 20,000, 2.1e-7·a and 1.7e-9.
-/// Seen to fail with the orbit's speed 0.1 % off its circular value (position 2e-2·a).
+/// Seen to fail with Yoshida's weight w₁ rounded to 9 digits (yoshida4 2.7e-8·a from the start,
+/// which the old bound, 1e-7, passed).
 #[test]
 fn circular_orbit_returns_after_one_kepler_period() {
     let (g, m1, m2, a) = (1.0, 100.0, 1.0, 10.0);

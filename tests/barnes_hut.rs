@@ -117,9 +117,9 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 /// the tree that costs accuracy shows. Measured at θ = 0.5 with the quadrupole: median 2.01e-3 and
 /// 99th percentile 3.49e-2 on the uniform field, 1.49e-3 and 2.20e-2 on the clustered one
 /// (max 0.49 and 0.29, single balls where the pulls nearly cancel); bounds: median 3e-3, 99th
-/// percentile 5e-2. Seen to fail with the default opening angle at 0.6 (uniform: median 4.1e-3,
-/// 99th percentile 7.7e-2, which the old bound alone, a median of 1 %, passed), and with the
-/// quadrupole left out (uniform: median 1.3e-2, 99th percentile 0.16).
+/// percentile 5e-2. Seen to fail with the default opening angle at 0.6 (uniform: median 4.2e-3,
+/// which the old bound, a median of 1 %, passed), and with the quadrupole left out (median
+/// 1.26e-2 uniform, 1.49e-2 clustered).
 fn check_accuracy(name: &str, field: &Field) {
     let attraction = Attraction { g_constant: 1.0, ..Attraction::default() };
     assert_eq!(attraction.opening_angle, DEFAULT_OPENING_ANGLE);

@@ -76,7 +76,7 @@ fn drag_follows_its_formulas() {
 /// (python3): `c = ½·ρ·C_d·π·1.1²/m = 683.9419012713223` /m, `v_t = √(g/c) = 0.11976361542727416`
 /// m/s, the rate there `c·v_t = √(g·c) = 81.91135483845736` /s, at 3·v_t 245.73406451537207 /s,
 /// and Stokes' `3π·μ·d/m = 0.23455916149864794` /s. Measured: within 2 ulp of each; bounds 1e-15
-/// relative. Seen to fail with the terminal speed's factor 2 left out (v_t / √2).
+/// relative. Seen to fail with the drag area taken as π·d² (v_t halved, 0.0599 m/s).
 #[test]
 fn the_drag_rate_bound_is_the_rate_at_the_terminal_speed() {
     let (rho, cd, d, m, g) = (1.225, 0.47, 2.2, 1.6e-3, 9.81);
@@ -104,9 +104,8 @@ fn the_drag_rate_bound_is_the_rate_at_the_terminal_speed() {
 
 /// Two heavy balls released at rest with collisions off pass through each other's centre
 /// without a singular kick: energy stays bounded and nothing becomes NaN. Measured: closest
-/// approach 7.4e-5 m, energy drift 1.5e-6 over 10 s (bound 1.5e-5). Seen to fail with the
-/// interior force taken as Newton's 1/r² all the way in (softened by nothing: the pair is flung
-/// apart at the crossing).
+/// approach 7.4e-5 m, energy drift 1.5e-6 over 10 s (bound 1.5e-5). Seen to fail with an
+/// interior force growing as r² (drift 1.85e-5, which the old bound, 1e-4, passed).
 #[test]
 fn attracting_balls_fall_through_each_other_without_a_singularity() {
     let effects =

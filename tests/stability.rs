@@ -104,8 +104,8 @@ fn newtons_cradle_passes_the_speed_down_the_row() {
 /// its sideways speed below 7.5e-5 m/s; it reaches x = 65.9985 (the wall at 66 for its 4 m
 /// radius, within the 1 cm it travels in a step) at t = 6.0 s and turns once. These bounds depend
 /// on the contact code only through momentum conservation, which any correct impulse keeps. Seen
-/// to fail with the heavy ball's velocity change taken with the light ball's inverse mass
-/// (`velocity_change_a = −J·n/m_b`): stopped dead by the first ball it met.
+/// to fail with the right wall met at 2·radius from it (in `contact_ball_wall` and the lockstep
+/// fast path): the heavy ball turned at x = 62.0, and the old checks passed.
 #[test]
 fn a_million_to_one_mass_ratio() {
     let scene = hard("mass-ratio");
@@ -180,7 +180,7 @@ fn fast_balls_never_pass_through() {
 /// that resolves the contact within the step. Measured (the returns at about 4.8 s and 9.6 s):
 /// 10.0564 m and 10.0760 m (5.6 J and 7.5 J gained); at dt/2 10.0245 and 10.0362 m. The bound
 /// depends on the contact code: today's first return uses 89 % of it. Seen to fail with the
-/// contact's restitution 1 taken as 0.99 (first return 9.94 m).
+/// impulse's (1 + e) taken as (1 + 0.99·e): first return at 9.31 m.
 #[test]
 fn attracting_balls_bounce_back_to_their_release_distance() {
     let scene = hard("close-attraction");
@@ -247,7 +247,8 @@ fn coincident_balls_come_apart() {
     // The push apart moves positions and gives no velocity (DESIGN: overlap correction must not
     // pump energy in): the balls, released at rest in vacuum, end at rest, with no energy at all.
     // Measured: exactly 0 J and 0 momentum (the largest overlap left: 2.6e-15 of a diameter).
-    // Seen to fail with the push given as a velocity as well (v = shift/dt): 0.94 J.
+    // Seen to fail with the solver giving a separating pair's push as a velocity too (v += shift/dt
+    // in `contact_solver.rs`): 6e8 J.
     assert_eq!(d.kinetic, 0.0, "the push apart gave the balls {} J", d.kinetic);
     assert_eq!(d.momentum, [0.0, 0.0]);
 }
@@ -286,8 +287,8 @@ fn corners_resting_and_touching() {
 /// Overlap: below 1 % of the smaller diameter of any pair, a 1 mm ball's 10 µm beside a 20 m one,
 /// as in the pile and the crowd. Measured: the total falls steadily to 1.31e-5 below its start in
 /// 5 s and never rises above it; the largest overlap, sampled every step, is 0. The energy bound
-/// depends on the contact code only through e = 1. Seen to fail with the wall's restitution
-/// ignored for the heavy ball (a 0.99 bounce: 2e-2 lost).
+/// depends on the contact code only through e = 1. Seen to fail with semi-implicit Euler's kick
+/// and drift swapped (explicit Euler: the total rose 1.28e-5 above its start).
 #[test]
 fn mixed_scales_stay_sane() {
     let scene = hard("scales");
