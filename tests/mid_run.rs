@@ -11,9 +11,11 @@
 //! (`Lockstep::from_parts` of its field, effects, integrator, step and balls, and its pull), runs
 //! both on, and compares their state hashes (every bit of every ball).
 //!
-//! Seen to fail with `forget_derived` not clearing the split speeds (`self.split_speeds = None`
-//! removed): the cases that add a fast ball or turn collisions on diverge; and with `add_ball`
-//! not calling `forget_derived`: the added ball is missed by the pair list.
+//! No such bug was found by these cases. Seen to fail with `forget_derived` not clearing the split
+//! speeds (`self.split_speeds = None` removed: "default, a fast ball added" diverges), with
+//! `add_ball` not calling `forget_derived` (that one and "drag fall, a light large ball added"),
+//! with `set_effects` not calling it ("drag fall, air 100 times denser"), and with `remove_last`
+//! not calling it ("attraction, the fast ball removed").
 
 use ballfield::Lockstep;
 use ballfield::physics::{Attraction, Ball, BallId, BallKind, Collisions, Drag, Effects, Gravity, Integrator};
@@ -70,8 +72,10 @@ fn newcomer(x: f64, y: f64, speed: f64) -> Ball {
 }
 
 /// The scenes the cases run on: every effect, the support pass of an inelastic pile, a 500-ball
-/// gas, and attraction summed directly.
-const SCENES: [&str; 5] = ["default", "attraction", "pile", "gas", "cradle"];
+/// gas, attraction summed directly, and two without collisions (a drag fall, a Kepler orbit),
+/// for the changes that turn them on.
+const SCENES: [&str; 7] =
+    ["default", "attraction", "pile", "gas", "cradle", "reference/drag-fall", "reference/kepler-e0"];
 
 #[test]
 fn without_a_change_a_run_goes_on_as_a_fresh_one() {
@@ -103,6 +107,12 @@ fn removing_a_ball_mid_run() {
         same_as_fresh(&format!("{name}, the last ball removed"), &builtin(name), |e| {
             e.remove_last().unwrap();
         });
+        // The fastest ball gone: the split must stop judging by its speed at once.
+        let mut with_fast = builtin(name);
+        with_fast.add_ball(newcomer(3.0, 47.0, 400.0)).unwrap();
+        same_as_fresh(&format!("{name}, the fast ball removed"), &with_fast, |e| {
+            e.remove_last().unwrap();
+        });
     }
 }
 
@@ -128,6 +138,47 @@ fn changing_effects_mid_run() {
             });
         }
     }
+}
+
+/// A 500-ball gas that ran without collisions, overlapping as it went, has them turned on: the
+/// pair list is found afresh, the split judged by the speeds as they are.
+#[test]
+fn collisions_turned_on_in_a_crowd_mid_run() {
+    let gas = scenes::builtin("gas").unwrap().unwrap();
+    let start = Lockstep::from_parts(
+        gas.field,
+        Effects { collisions: None, ..gas.effects },
+        gas.integrator,
+        gas.dt,
+        gas.max_balls,
+        &gas.balls,
+    );
+    same_as_fresh("gas, collisions on", &start, |e| {
+        e.set_effects(Effects { collisions: Some(Collisions { restitution: 1.0 }), ..*e.effects() });
+    });
+}
+
+/// Changes that make drag stiff, so that the step must be split for it: the split is judged by
+/// the drag constants of the balls and effects as they are now, not as they were. The 1.6 g ball
+/// of 2.2 m of the fuzzer's findings falls at its terminal speed, where its drag rate is 82 /s
+/// (one sub-step of 1 ms resolves it); in air a hundred times denser its rate is 8,200 /s at that
+/// speed and 820 /s at its new terminal speed, which takes up to 17 sub-steps.
+#[test]
+fn drag_made_stiff_mid_run() {
+    let scene = scenes::builtin("reference/drag-fall").unwrap().unwrap();
+    let light = Ball { mass: 1.6e-3, diameter: 2.2, ..newcomer(30.0, 40.0, 0.0) };
+    let mut balls = scene.balls.clone();
+    balls.push(Ball { id: BallId(balls.len() as u32), ..light });
+    let start = Lockstep::from_parts(scene.field, scene.effects, scene.integrator, scene.dt, 10, &balls);
+    same_as_fresh("drag fall, air 100 times denser", &start, |e| {
+        e.set_effects(Effects { drag: Some(Drag::Quadratic { rho: 122.5, cd: 0.47 }), ..*e.effects() });
+    });
+    let start = Lockstep::from_parts(scene.field, scene.effects, scene.integrator, scene.dt, 10, &scene.balls);
+    same_as_fresh("drag fall, a light large ball added", &start, |e| {
+        e.set_effects(Effects { drag: Some(Drag::Quadratic { rho: 122.5, cd: 0.47 }), ..*e.effects() });
+        e.run(1);
+        e.add_ball(light).unwrap();
+    });
 }
 
 #[test]

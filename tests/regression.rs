@@ -20,6 +20,9 @@
 //! each engine on one thread and the scenes side by side (2,000 steps of all 24: about 2 s). They
 //! are the figures `ballfield headless --scene NAME --steps 2000 --report R.json` writes as
 //! `state_hash`.
+//!
+//! Seen to fail with the sub-step split's `MAX_TRAVEL` at 0.51 radii instead of 0.5
+//! (`src/lockstep.rs`): "hard/scales: 998ba4ec894ec8d9, the table says 2783572d6e106457".
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
