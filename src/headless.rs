@@ -59,8 +59,10 @@ pub struct HeadlessOptions {
 pub enum HeadlessError {
     #[error("--state-in: {0}")]
     StateIn(StateFileError),
-    #[error("--state-out: {0}")]
-    StateOut(StateFileError),
+    /// The run finished but its state could not be written: the report of the run is kept, so
+    /// that the run's other outputs are still written.
+    #[error("--state-out: {cause}")]
+    StateOut { cause: StateFileError, report: Box<RunReport> },
     #[error("cannot start the threaded runtime: {0}")]
     Runtime(RuntimeError),
     #[error("--state-in {file}: {count} balls, more than simulation.max-balls = {limit} of the scene")]
@@ -116,7 +118,7 @@ pub(crate) fn lockstep_engine(scene: &Scene, options: &HeadlessOptions) -> Locks
     engine
 }
 
-/// The report of a finished lockstep run (writes `--state-out` first). Shared with `frames`.
+/// The report of a finished lockstep run (and `--state-out` written). Shared with `frames`.
 pub(crate) fn lockstep_report(
     scene: &Scene,
     options: &HeadlessOptions,
@@ -126,10 +128,7 @@ pub(crate) fn lockstep_report(
     wall_seconds: f64,
 ) -> Result<RunReport, HeadlessError> {
     let end = engine.diagnostics();
-    if let Some(path) = &options.state_out {
-        write_state(path, &engine.bodies().to_balls()).map_err(HeadlessError::StateOut)?;
-    }
-    Ok(RunReport {
+    let report = RunReport {
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),
         engine: Engine::Lockstep.name().into(),
@@ -148,7 +147,23 @@ pub(crate) fn lockstep_report(
         threads: Some(engine.threads()),
         memory: None,
         runtime: None,
-    })
+    };
+    write_state_out(options, &engine.bodies().to_balls(), report)
+}
+
+/// Writes `--state-out` if asked; on failure the error carries the report.
+fn write_state_out(
+    options: &HeadlessOptions,
+    balls: &[crate::physics::Ball],
+    report: RunReport,
+) -> Result<RunReport, HeadlessError> {
+    match &options.state_out {
+        Some(path) => match write_state(path, balls) {
+            Ok(()) => Ok(report),
+            Err(cause) => Err(HeadlessError::StateOut { cause, report: Box::new(report) }),
+        },
+        None => Ok(report),
+    }
 }
 
 /// The runtime configuration a scene asks for. `BALLFIELD_BALL_WAIT=sleep` makes the ball threads
@@ -193,7 +208,7 @@ fn run_threaded(scene: &Scene, options: &HeadlessOptions) -> Result<RunReport, H
 }
 
 /// Ends a threaded run: pauses (so the snapshot is of balls at rest in time), reads the figures,
-/// joins every thread, writes `--state-out` and builds the report. Shared with `frames`.
+/// joins every thread, builds the report and writes `--state-out`. Shared with `frames`.
 pub(crate) fn finish_threaded(
     scene: &Scene,
     options: &HeadlessOptions,
@@ -212,10 +227,7 @@ pub(crate) fn finish_threaded(
     let params = runtime.params();
     let shutdown = runtime.shutdown();
     let end = measure(&bodies, &params.field, &params.effects, walls);
-    if let Some(path) = &options.state_out {
-        write_state(path, &bodies.to_balls()).map_err(HeadlessError::StateOut)?;
-    }
-    Ok(RunReport {
+    let report = RunReport {
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),
         engine: Engine::Threaded.name().into(),
@@ -252,5 +264,6 @@ pub(crate) fn finish_threaded(
             shutdown_seconds: shutdown.seconds,
             threads_joined: shutdown.joined,
         }),
-    })
+    };
+    write_state_out(options, &bodies.to_balls(), report)
 }

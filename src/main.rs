@@ -8,8 +8,8 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use ballfield::app::{self, AppOptions, EngineKind};
-use ballfield::frames::{self, FrameOptions};
-use ballfield::headless::{self, Engine, HeadlessOptions, RunLength};
+use ballfield::frames::{self, FrameOptions, FramesError};
+use ballfield::headless::{self, Engine, HeadlessError, HeadlessOptions, RunLength};
 use ballfield::physics::Integrator;
 use ballfield::scenes;
 
@@ -246,24 +246,34 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 state_out: args.state_out,
                 threads: args.threads,
             };
-            let report = match &args.frames {
-                None => headless::run(&scene, &options)?,
+            // A state that cannot be written fails the run, but only after its other outputs
+            // (the frames, the report) are written.
+            let (report, state_out_failure) = match &args.frames {
+                None => match headless::run(&scene, &options) {
+                    Err(HeadlessError::StateOut { cause, report }) => (*report, Some(cause)),
+                    run => (run?, None),
+                },
                 Some(dir) => {
                     let frame_options = FrameOptions { dir: dir.clone(), every: args.frame_every, size: args.size };
-                    let (report, written) = frames::run_with_frames(&scene, &options, &frame_options)?;
-                    if !args.quiet {
-                        println!(
-                            "frames       {} of {}x{} in {} ({} skipped), {:.1} ms each to draw and read back on {}",
-                            written.frames,
-                            written.width,
-                            written.height,
-                            dir.display(),
-                            written.skipped,
-                            written.render_seconds * 1e3,
-                            written.adapter
-                        );
+                    match frames::run_with_frames(&scene, &options, &frame_options) {
+                        Err(FramesError::Headless(HeadlessError::StateOut { cause, report })) => (*report, Some(cause)),
+                        run => {
+                            let (report, written) = run?;
+                            if !args.quiet {
+                                println!(
+                                    "frames       {} of {}x{} in {} ({} skipped), {:.1} ms each to draw and read back on {}",
+                                    written.frames,
+                                    written.width,
+                                    written.height,
+                                    dir.display(),
+                                    written.skipped,
+                                    written.render_seconds * 1e3,
+                                    written.adapter
+                                );
+                            }
+                            (report, None)
+                        }
                     }
-                    report
                 }
             };
             if let Some(path) = &args.report {
@@ -273,6 +283,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             if !args.quiet {
                 print!("{}", report.summary());
+            }
+            if let Some(cause) = state_out_failure {
+                anyhow::bail!("--state-out: {cause}");
             }
         }
         Some(Command::Accuracy(args)) if args.threaded => {
