@@ -98,7 +98,7 @@ fn report(path: &Path) -> serde_json::Value {
 /// inclusive: 100 steps of 1 ms at 20 ms are frames at 0, 20, ..., 100 ms — six of them; at a bare
 /// 0.025 (seconds) five. Each is `--size` pixels, and the cradle's striker moves between the
 /// first and the last. Seen to fail with the run's last frame left out (`at >= steps` for
-/// `at > steps` in `frames::run_lockstep`: five frames) and with `--size` ignored (700×500).
+/// `at > steps` in `frames::run_lockstep`: five frames) and with `--size` ignored (720×520, the field at 10 px/m).
 #[test]
 fn lockstep_frames_every_and_size() {
     for (every, expected) in [("20ms", 6), ("0.025", 5)] {
