@@ -98,7 +98,8 @@ fn report(path: &Path) -> serde_json::Value {
 /// inclusive: 100 steps of 1 ms at 20 ms are frames at 0, 20, ..., 100 ms — six of them; at a bare
 /// 0.025 (seconds) five. Each is `--size` pixels, and the cradle's striker moves between the
 /// first and the last. Seen to fail with the run's last frame left out (`at >= steps` for
-/// `at > steps` in `frames::run_lockstep`: five frames) and with `--size` ignored (720×520, the field at 10 px/m).
+/// `at > steps` in `frames::run_lockstep`: five frames) and with `--size` ignored (720×520, the
+/// field at 10 px/m and its margin).
 #[test]
 fn lockstep_frames_every_and_size() {
     for (every, expected) in [("20ms", 6), ("0.025", 5)] {
@@ -135,7 +136,8 @@ fn lockstep_frames_every_and_size() {
 /// Threaded frames are taken every `--frame-every` of wall-clock time, and a slot whose time
 /// passed while the previous frame was drawn is skipped and counted: over 0.25 s at 62.5 ms (both
 /// exact in binary) the slots are at 0, 62.5, ..., 250 ms, and the frames written plus the slots
-/// skipped are at least those five. Frame 0 is always written. Seen to fail with `--size` ignored.
+/// skipped are at least those five. Frame 0 is always written. Seen to fail with `--size` ignored
+/// (720×520).
 #[test]
 fn threaded_frames_every_and_size() {
     let dir = temp_dir("threaded-frames");
