@@ -110,6 +110,16 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
+/// The tree's force error against the direct sum at the default opening angle, over every ball.
+///
+/// The error is the method's own approximation, and the same bits on every run (fixed fields,
+/// fixed θ), not rounding: the bounds sit just above it rather than 10× above, so that a change to
+/// the tree that costs accuracy shows. Measured at θ = 0.5 with the quadrupole: median 2.01e-3 and
+/// 99th percentile 3.49e-2 on the uniform field, 1.49e-3 and 2.20e-2 on the clustered one
+/// (max 0.49 and 0.29, single balls where the pulls nearly cancel); bounds: median 3e-3, 99th
+/// percentile 5e-2. Seen to fail with the default opening angle at 0.6 (uniform: median 4.2e-3,
+/// which the old bound, a median of 1 %, passed), and with the quadrupole left out (median
+/// 1.26e-2 uniform, 1.49e-2 clustered).
 fn check_accuracy(name: &str, field: &Field) {
     let attraction = Attraction { g_constant: 1.0, ..Attraction::default() };
     assert_eq!(attraction.opening_angle, DEFAULT_OPENING_ANGLE);
@@ -121,7 +131,8 @@ fn check_accuracy(name: &str, field: &Field) {
         "{name}: θ = {DEFAULT_OPENING_ANGLE}: relative force error median {median:.2e}, 99th percentile {p99:.2e}, \
          max {max:.2e}; ω² tree {tree_rate:.4e} / direct {exact_rate:.4e}"
     );
-    assert!(median <= 0.01, "{name}: median relative force error {median:.3e} > 1 %");
+    assert!(median <= 3e-3, "{name}: median relative force error {median:.3e}");
+    assert!(p99 <= 5e-2, "{name}: 99th percentile of the relative force error {p99:.3e}");
     assert!(tree.iter().all(|a| a.is_finite()));
     // Both find the fastest orbit, which is between touching neighbours: summed exactly by both.
     assert!(
@@ -131,12 +142,12 @@ fn check_accuracy(name: &str, field: &Field) {
 }
 
 #[test]
-fn the_tree_is_within_one_percent_of_the_direct_sum_on_a_uniform_field() {
+fn the_tree_is_close_to_the_direct_sum_on_a_uniform_field() {
     check_accuracy("uniform", &uniform(10_000, 1));
 }
 
 #[test]
-fn the_tree_is_within_one_percent_of_the_direct_sum_on_a_clustered_field() {
+fn the_tree_is_close_to_the_direct_sum_on_a_clustered_field() {
     check_accuracy("clustered", &clustered(10_000, 2));
 }
 

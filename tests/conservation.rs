@@ -19,8 +19,11 @@ fn oblique(ma: f64, mb: f64, e: f64) -> (ContactBody, ContactBody, ballfield::ph
     (a, b, c)
 }
 
+/// Measured: at most 1.5e-16 of Σ m·|v| (a rounding or two) at every mass ratio and e; bound
+/// 2e-15. Seen to fail with ball b's velocity change divided by a's mass (`v_b += J·n/m_a`: 1.7
+/// at 1:3).
 #[test]
-fn momentum_is_conserved_to_1e12_for_any_mass_ratio() {
+fn momentum_is_conserved_to_rounding_for_any_mass_ratio() {
     for (ma, mb) in [(1.0, 1.0), (1.0, 3.0), (1.0, 1.0e6), (1.0e6, 1.0)] {
         for e in [1.0, 0.5, 0.0] {
             let (a, b, c) = oblique(ma, mb, e);
@@ -29,11 +32,13 @@ fn momentum_is_conserved_to_1e12_for_any_mass_ratio() {
             let after = ma * (a.velocity + c.velocity_change_a) + mb * (b.velocity + c.velocity_change_b);
             let scale = ma * a.velocity.length() + mb * b.velocity.length();
             let err = (after - before).length() / scale;
-            assert!(err <= 1e-12, "mass ratio {ma}:{mb}, e = {e}: relative momentum error {err:e}");
+            assert!(err <= 2e-15, "mass ratio {ma}:{mb}, e = {e}: relative momentum error {err:e}");
         }
     }
 }
 
+/// Measured: the loss is ½·μ·(1 − e²)·v_n² to at most 1.1e-16 of the energy before; bound 2e-15.
+/// Seen to fail with the impulse's (1 + e) taken as (1 + e²) (at e = 0.8: 0.13 of the energy).
 #[test]
 fn kinetic_energy_is_kept_for_e1_and_lost_by_the_right_amount_below() {
     for (ma, mb) in [(1.0, 1.0), (1.0, 3.0), (1.0, 1.0e6)] {
@@ -47,11 +52,13 @@ fn kinetic_energy_is_kept_for_e1_and_lost_by_the_right_amount_below() {
             let vn = (b.velocity - a.velocity).dot(c.normal);
             let expected_loss = 0.5 * mu * (1.0 - e * e) * vn * vn;
             let err = ((before - after) - expected_loss).abs() / before;
-            assert!(err <= 1e-12, "mass ratio {ma}:{mb}, e = {e}: energy error {err:e}");
+            assert!(err <= 2e-15, "mass ratio {ma}:{mb}, e = {e}: energy error {err:e}");
         }
     }
 }
 
+/// Measured: tangential changes 4.4e-16 and 2.2e-16 m/s (2 and 1 ulp of the 0.5 m/s involved),
+/// the centre of mass moved 7.8e-18 m, the gap after separation exactly 0.
 #[test]
 fn tangential_velocity_is_untouched_and_separation_keeps_the_centre_of_mass() {
     let (a, b, c) = oblique(2.0, 5.0, 1.0);
@@ -59,7 +66,7 @@ fn tangential_velocity_is_untouched_and_separation_keeps_the_centre_of_mass() {
     assert!((c.velocity_change_a.dot(t)).abs() < 1e-15);
     assert!((c.velocity_change_b.dot(t)).abs() < 1e-15);
     let com_shift = 2.0 * c.shift_a + 5.0 * c.shift_b;
-    assert!(com_shift.length() < 1e-15, "centre of mass moved by {com_shift}");
+    assert!(com_shift.length() < 1e-16, "centre of mass moved by {com_shift}");
     let gap = (b.position + c.shift_b).distance(a.position + c.shift_a) - (a.radius + b.radius);
     assert!(gap.abs() < 1e-15, "after separation the balls just touch (gap {gap:e})");
 }
@@ -88,14 +95,20 @@ fn head_on_equal_masses_exchange_velocities_in_the_engine() {
     );
     e.run(2000);
     let b = e.bodies();
-    assert!((b.velocity[0].x - -1.0).abs() < 1e-12 && (b.velocity[1].x - 2.0).abs() < 1e-12, "{:?}", b.velocity);
+    // Measured: exact; bound a few ulp of 2 m/s.
+    assert!((b.velocity[0].x - -1.0).abs() < 1e-14 && (b.velocity[1].x - 2.0).abs() < 1e-14, "{:?}", b.velocity);
 }
 
 /// The 500-ball gas: vacuum, e = 1 everywhere. Kinetic energy is all the energy there is; every
 /// impulse and wall bounce keeps it to rounding, so over 10,000 steps it may drift only by
-/// accumulated rounding (bound 1e-9 relative).
+/// accumulated rounding. Measured: 1.0e-15 (bound 1e-14), and p_end − p_start equal to the
+/// walls' momentum to 1.8e-16 of their total impulse (bound 2e-15). These two figures depend on
+/// the contact solver, but only as any exact impulse does: each collision keeps energy and
+/// momentum to a rounding of the pair's, whatever the solver's order of pairs. Seen to fail with
+/// the impulse's (1 + e) taken as (1 + e·(1 − 1e-12)): drift 2.2e-11, which the old bound, 1e-9,
+/// passed.
 #[test]
-fn elastic_gas_keeps_energy_to_1e9_over_10000_steps() {
+fn elastic_gas_keeps_energy_to_rounding_over_10000_steps() {
     let scene = scenes::builtin("gas").unwrap().unwrap();
     assert_eq!(scene.balls.len(), 500);
     let mut e = ballfield::Lockstep::new(&scene);
@@ -103,7 +116,8 @@ fn elastic_gas_keeps_energy_to_1e9_over_10000_steps() {
     e.run(10_000);
     let end = e.diagnostics();
     let drift = relative(end.total, start.total);
-    assert!(drift <= 1e-9, "energy drift {drift:e}");
+    eprintln!("elastic gas: energy drift {drift:e}");
+    assert!(drift <= 1e-14, "energy drift {drift:e}");
     assert!(end.largest_overlap_ratio <= 0.01, "largest overlap {} of a diameter", end.largest_overlap_ratio);
     assert_eq!(end.non_finite, 0);
     assert_eq!(end.outside, 0);
@@ -112,5 +126,6 @@ fn elastic_gas_keeps_energy_to_1e9_over_10000_steps() {
     let dp = DVec2::from(end.momentum) - DVec2::from(start.momentum);
     let walls = end.wall_impulses.momentum_given();
     let scale = end.wall_impulses.total();
-    assert!((dp - walls).length() <= 1e-9 * scale, "dp {dp} vs walls {walls}");
+    eprintln!("elastic gas: momentum off by {:e} of the walls' impulse", (dp - walls).length() / scale);
+    assert!((dp - walls).length() <= 2e-15 * scale, "dp {dp} vs walls {walls}");
 }

@@ -1,6 +1,24 @@
 //! Property tests (proptest): thousands of random scene texts and random initial states.
 //! Scene parsing never panics and every refusal names the file; random fields never produce NaN,
 //! never lose a ball through a wall and never panic.
+//!
+//! Reproducible: every run draws its cases from one fixed seed (`CI_SEED`), so CI runs the same
+//! cases every time and a failure there is a failure on every machine. `PROPTEST_RNG_SEED=N`
+//! draws another set (the longer runs by hand, below). Failures are kept: proptest appends the
+//! seed of every failing case to `tests/fuzz.proptest-regressions` (committed), and every run
+//! replays the cases listed there before drawing new ones.
+//!
+//! The longer run by hand, with other seeds and more cases (about 4 minutes per 1,000 random
+//! fields on two cores; the seeds run so far, and what they found, are in the README):
+//!
+//! ```sh
+//! PROPTEST_RNG_SEED=16 BALLFIELD_FUZZ_CASES=1000 cargo test --release --test fuzz
+//! ```
+//!
+//! Seen to fail, and to keep its failure, with the sub-step split turned off
+//! (`adaptive_substeps: false` in `Lockstep::from_parts`): the random-field property failed at
+//! its CI seed, proptest shrank the field and wrote its seed to the regressions file, and the next
+//! run of that build failed on the replayed case before drawing any new one.
 
 mod common;
 
@@ -10,6 +28,23 @@ use ballfield::scene::{Origin, Scene};
 use ballfield::scenes::BUILTIN;
 use glam::DVec2;
 use proptest::prelude::*;
+use proptest::test_runner::{FileFailurePersistence, RngSeed};
+
+/// The seed the cases are drawn from unless `PROPTEST_RNG_SEED` names another.
+const CI_SEED: u64 = 12;
+
+/// `cases` cases from the fixed seed (or `PROPTEST_RNG_SEED`), failures kept in
+/// `tests/fuzz.proptest-regressions` (unless `PROPTEST_DISABLE_FAILURE_PERSISTENCE` is set).
+fn config(cases: u32) -> ProptestConfig {
+    let mut config = ProptestConfig { cases, ..ProptestConfig::default() };
+    if config.rng_seed == RngSeed::Random {
+        config.rng_seed = RngSeed::Fixed(CI_SEED);
+    }
+    if config.failure_persistence.is_some() {
+        config.failure_persistence = Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions")));
+    }
+    config
+}
 
 /// Values a user might type by mistake, as TOML.
 fn bad_value() -> impl Strategy<Value = String> {
@@ -68,7 +103,7 @@ fn mutated_scene() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 3000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(config(3000))]
 
     #[test]
     fn scene_parsing_never_panics_and_names_the_file(text in mutated_scene()) {
@@ -119,7 +154,7 @@ fn random_field_cases() -> u32 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: random_field_cases(), failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(config(random_field_cases()))]
 
     /// Random balls from 1 mm to 3 m, 1 g to 1e6 kg, up to 400 m/s, overlapping as they fall,
     /// under random effects (attraction with G = 1: stiff pairs) and integrators: 50 steps

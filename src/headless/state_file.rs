@@ -85,6 +85,11 @@ fn line_at(text: &str, offset: usize) -> u64 {
 pub fn write_state(path: &Path, balls: &[Ball]) -> Result<(), StateFileError> {
     let io = |e: csv::Error| StateFileError::Io { file: path.to_path_buf(), cause: std::io::Error::other(e) };
     let mut w = csv::Writer::from_path(path).map_err(io)?;
+    // The writer takes the header from the first row; a field without balls has none, and its
+    // file must still read back.
+    if balls.is_empty() {
+        w.write_record(HEADER).map_err(io)?;
+    }
     for b in balls {
         w.serialize(Row {
             id: b.id.0,

@@ -46,6 +46,8 @@ struct BallState {
     /// Cycles since the last flush that took attraction from the tree / read the table directly.
     tree_cycles: u64,
     direct_cycles: u64,
+    /// This ball's longest cycle so far, as `Shared::pack_cycle` packs it.
+    longest_cycle: u64,
 }
 
 /// What a ball thread reuses from cycle to cycle, so that a cycle allocates nothing.
@@ -145,6 +147,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         walls: WallImpulses::default(),
         tree_cycles: 0,
         direct_cycles: 0,
+        longest_cycle: 0,
     };
     let mut params: Params = shared.params.read().clone();
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
@@ -341,6 +344,13 @@ fn advance(
     let others = gather_others(state, uniform, dt, params, shared, others, near);
     let ball_forces = forces.on_ball(body, state.pull, &others);
     let sub = judge_split(&state.ball, dt, max_step, ball_forces);
+    // The longest cycle so far and its split, for the report (a stall shows as one long cycle).
+    let packed = Shared::pack_cycle(dt, sub.count as u64);
+    if packed > state.longest_cycle {
+        state.longest_cycle = packed;
+        // Relaxed: a statistic (see `Shared::longest_cycle`).
+        shared.longest_cycle.fetch_max(packed, Ordering::Relaxed);
+    }
     if sub.drag_limited() {
         // Relaxed: a statistic (see `Shared::drag_limited`).
         shared.drag_limited.fetch_add(1, Ordering::Relaxed);

@@ -93,6 +93,10 @@ pub struct RuntimeStats {
     /// whose drag was too stiff for the shortest sub-step (0 in every sane field).
     pub speed_limited: u64,
     pub drag_limited: u64,
+    /// The longest cycle a ball ran (simulated s: a stall makes one long) and the sub-steps it
+    /// was split into.
+    pub longest_cycle_seconds: f64,
+    pub longest_cycle_substeps: u64,
     pub threads_panicked: u64,
     pub panics: Vec<String>,
     /// Attraction trees the monitor built and published (from `TREE_MIN_BALLS` balls on), per
@@ -460,6 +464,7 @@ impl Runtime {
         let seconds = (now - self.started).as_secs_f64();
         let passes = self.shared.monitor_passes.load(Ordering::Relaxed);
         let builds = self.shared.tree_builds.load(Ordering::Relaxed);
+        let longest = self.shared.longest_cycle.load(Ordering::Relaxed);
         RuntimeStats {
             balls: reg.balls.len(),
             seconds,
@@ -475,6 +480,8 @@ impl Runtime {
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
             speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),
             drag_limited: self.shared.drag_limited.load(Ordering::Relaxed),
+            longest_cycle_seconds: (longest >> 16) as f64 * 1e-9,
+            longest_cycle_substeps: longest & 0xFFFF,
             threads_panicked: self.shared.panicked.load(Ordering::Relaxed),
             panics: reg.panics.clone(),
             tree_builds: builds,

@@ -77,6 +77,10 @@ pub(crate) struct Shared {
     /// acts (0 in every sane field).
     pub speed_limited: AtomicU64,
     pub drag_limited: AtomicU64,
+    /// The longest cycle any ball ran and the sub-steps it took, packed by `pack_cycle` so that
+    /// one `fetch_max` keeps the pair together. Relaxed: a statistic; each ball touches it only
+    /// when one of its own cycles is longer than all its earlier ones.
+    pub longest_cycle: AtomicU64,
     /// The monitor's latest attraction tree, or none (see `attraction_tree.rs`: the monitor is
     /// its only writer, the ball threads read it lock-free once per cycle).
     pub attraction_tree: PublishedTree,
@@ -114,6 +118,7 @@ impl Shared {
             messages_dropped: AtomicU64::new(0),
             speed_limited: AtomicU64::new(0),
             drag_limited: AtomicU64::new(0),
+            longest_cycle: AtomicU64::new(0),
             attraction_tree: PublishedTree::empty(),
             tree_builds: AtomicU64::new(0),
             tree_build_ns: AtomicU64::new(0),
@@ -122,6 +127,13 @@ impl Shared {
             attraction_tree_cycles: AtomicU64::new(0),
             attraction_direct_cycles: AtomicU64::new(0),
         }
+    }
+
+    /// A cycle's length (ns, in the high 48 bits) and its sub-steps (the low 16 bits, enough for
+    /// `MAX_SUBSTEPS`): packed values order by length first.
+    pub fn pack_cycle(dt: f64, steps: u64) -> u64 {
+        let ns = (dt * 1e9).clamp(0.0, ((1u64 << 48) - 1) as f64) as u64;
+        (ns << 16) | steps.min(0xFFFF)
     }
 
     pub fn update_params(&self, f: impl FnOnce(&mut Params)) {
