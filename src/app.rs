@@ -378,8 +378,12 @@ impl App {
     fn record(&mut self, source: &str, command: String, subject: Subject) {
         let kind = command.split('(').next().unwrap_or_default().to_string();
         *self.report.commands.entry(kind).or_default() += 1;
+        // Numbered from 1, and written once the state is taken: the end-to-end tests wait for
+        // the line of the command they gave, and bound its instants by the line's.
+        let n = self.report.log.len() as u64 + self.report.log_dropped + 1;
         if self.report.log.len() >= MAX_LOG {
             self.report.log_dropped += 1;
+            log::info!("command {n}: {command} from {source}");
             return;
         }
         let state = self.state();
@@ -389,6 +393,7 @@ impl App {
             Subject::Id(id) => self.balls.iter().find(|b| b.id == id).copied(),
         };
         let at = self.started.elapsed().as_secs_f64();
+        log::info!("command {n}: {command} from {source}");
         self.report.log.push(CommandRecord { at, source: source.into(), command, ball, state });
     }
 
