@@ -1118,9 +1118,19 @@ impl ApplicationHandler for App {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         if let Some(gfx) = &mut self.gfx {
-            // egui asks for a repaint on nearly every event (RedrawRequested included, which
-            // would loop): the 15 ms tick redraws anyway, so its answer is not needed.
-            let _ = gfx.egui_state.on_window_event(&gfx.window, &event);
+            // Keys go to the game unless a text field has focus (typing a slider's value): a
+            // hotkey then reaches egui only, and otherwise the game only. egui must not see
+            // them meanwhile: its Tab would focus a widget, which then takes every key (the
+            // game's keys all stopped after Tab showed the panel), and a focused slider would
+            // move with the arrows that pull the key ball.
+            let typing = self.egui_ctx.text_edit_focused();
+            let hotkey = matches!(&event, WindowEvent::KeyboardInput { event, .. }
+                if matches!(event.physical_key, PhysicalKey::Code(c) if keys::action(c).is_some()));
+            if typing || !hotkey {
+                // egui asks for a repaint on nearly every event (RedrawRequested included, which
+                // would loop): the 15 ms tick redraws anyway, so its answer is not needed.
+                let _ = gfx.egui_state.on_window_event(&gfx.window, &event);
+            }
             // Pointer activity over the panel (or anywhere while egui holds the pointer, as when
             // a slider is dragged) and typing into it: the panel is drawn anew next frame.
             let width = gfx.window.inner_size().width as f64;
@@ -1138,11 +1148,11 @@ impl ApplicationHandler for App {
                 _ if self.egui_ctx.egui_wants_pointer_input() => self.panel_dirty = true,
                 _ => {}
             }
-            // Keys go to the game unless a text field has focus; the mouse unless it is over egui.
+            // The mouse goes to the game unless it is over egui.
             let egui_pointer = self.egui_ctx.is_pointer_over_egui() || self.egui_ctx.egui_wants_pointer_input();
             match &event {
                 WindowEvent::MouseInput { .. } if egui_pointer && self.grab.is_none() => return,
-                WindowEvent::KeyboardInput { .. } if self.egui_ctx.egui_wants_keyboard_input() => return,
+                WindowEvent::KeyboardInput { .. } if typing => return,
                 _ => {}
             }
         }

@@ -10,7 +10,7 @@ mod xwindow;
 use std::time::Duration;
 
 use glam::DVec2;
-use xwindow::{Record, Session, one_at_a_time, tally, tools_present};
+use xwindow::{Record, Session, one_at_a_time, tools_present};
 
 /// Vacuum, no collisions: only the pull moves the key ball, which starts at rest in the middle
 /// and stays far from every wall (at most ~7 m from the middle over a 0.8 s hold and its
@@ -86,38 +86,17 @@ fn run(engine: &str) {
     }
     let _one = one_at_a_time();
     let mut s = Session::start(&format!("pull-{engine}"), SCENE, &["--engine", engine, "--exit-after", "120"]);
-    let mut n = 0; // commands the window has carried out
-    let mut sent = Vec::new(); // winit names of the keys pressed
-    // Per hold: the records' index range and the instants bounding the hold.
-    let mut spans = Vec::new();
+    let mut holds = Vec::new();
     for hold in HOLDS {
-        s.key("r");
-        sent.push("KeyR");
-        n += 1;
-        s.wait_command(n);
-        let first = n + 1;
-        let down = s.key_down(hold.keys);
-        n += hold.keys.len();
-        let pressed_seen = s.wait_command(first);
-        s.wait_command(n);
-        std::thread::sleep(Duration::from_secs_f64(hold.seconds));
-        let up = s.key_up(hold.keys);
-        n += hold.keys.len();
-        let released_seen = s.wait_command(n);
-        sent.extend(hold.keys.iter().map(|k| arrow(k).1));
-        // The window saw the first press after `down.sent` and before this test read its log
-        // line, and the last release likewise: the hold lies between these two spans.
-        let shortest = (up.sent - pressed_seen).as_secs_f64();
-        let longest = (released_seen - down.sent).as_secs_f64();
-        spans.push((first, n, shortest, longest));
+        s.press("r", "KeyR");
+        let keys: Vec<(&str, &'static str)> = hold.keys.iter().map(|k| (arrow(k).0, arrow(k).1)).collect();
+        holds.push(s.hold(&keys, hold.seconds));
     }
-    s.key("Escape");
-    sent.push("Escape");
+    s.press("Escape", "Escape");
     let done = s.finish(Duration::from_secs(30));
-    done.assert_clean("Escape", &tally(&sent));
+    done.assert_clean("Escape");
     let r = &done.report;
     let log = &r.log;
-    assert_eq!(log.len(), n + 1, "records: {:#?}", log.iter().map(|r| &r.command).collect::<Vec<_>>());
     assert_eq!(r.commands.get("Pull"), Some(&6));
     assert_eq!(r.commands.get("Release"), Some(&6));
     assert_eq!(r.commands.get("Reset"), Some(&(HOLDS.len() as u64)));
@@ -126,12 +105,12 @@ fn run(engine: &str) {
         "[{engine}] tick gap median {:.1} ms, max {:.1} ms; {} frames in {:.1} s",
         r.tick_gap_ms_median, r.tick_gap_ms_max, r.frames, r.seconds
     );
-    for (hold, &(first, last, shortest, longest)) in HOLDS.iter().zip(&spans) {
-        let reset = &log[first - 2];
+    for (hold, h) in HOLDS.iter().zip(&holds) {
+        let reset = &log[h.first - 1];
         assert_eq!(reset.command, "Reset");
         let k = reset.state.key();
         assert_eq!((k.position, k.velocity), (START, DVec2::ZERO), "R puts the key ball back at rest");
-        check_hold(engine, hold, &log[first - 1..last], shortest, longest, r.tick_gap_ms_max * 1e-3);
+        check_hold(engine, hold, &log[h.first..=h.last], h.shortest, h.longest, r.tick_gap_ms_max * 1e-3);
     }
     done.clean_up();
 }
@@ -166,7 +145,11 @@ fn check_hold(engine: &str, hold: &Hold, records: &[Record], shortest: f64, long
     let mut held: Vec<&str> = Vec::new();
     for w in records.windows(2) {
         let name = w[0].source.as_str();
-        if w[0].command.starts_with("Pull") { held.push(name) } else { held.retain(|h| *h != name) }
+        if w[0].command.starts_with("Pull") {
+            held.push(name)
+        } else {
+            held.retain(|h| *h != name)
+        }
         let a = expected_acceleration(&held);
         let dt = w[1].state.time - w[0].state.time;
         assert!(dt >= 0.0);

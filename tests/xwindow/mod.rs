@@ -29,11 +29,8 @@ pub fn one_at_a_time() -> MutexGuard<'static, ()> {
 /// Whether the tools are here. Without them: a failure with `CI` set, a loud skip elsewhere.
 pub fn tools_present() -> bool {
     for tool in ["Xvfb", "xdotool"] {
-        let found = Command::new("sh")
-            .arg("-c")
-            .arg(format!("command -v {tool}"))
-            .output()
-            .is_ok_and(|o| o.status.success());
+        let found =
+            Command::new("sh").arg("-c").arg(format!("command -v {tool}")).output().is_ok_and(|o| o.status.success());
         if !found {
             let why = format!("`{tool}` is not installed (apt-get install xvfb xauth xdotool)");
             if std::env::var_os("CI").is_some() {
@@ -83,6 +80,10 @@ pub struct Session {
     pub dir: PathBuf,
     report: PathBuf,
     lines: Arc<Lines>,
+    /// Commands the window has carried out, as this test counts them, and the keys it pressed
+    /// (winit's names), in order.
+    pub commands: usize,
+    pub sent: Vec<&'static str>,
     // Dropped in this order: the window, then its display.
     app: Killed,
     _xvfb: Killed,
@@ -91,6 +92,9 @@ pub struct Session {
 /// How the window ended.
 pub struct Finished {
     pub status: ExitStatus,
+    /// What the session counted: commands given, keys pressed.
+    pub commands: usize,
+    pub sent: Vec<&'static str>,
     pub report: Report,
     /// The report as written, for messages.
     pub json: String,
@@ -153,6 +157,20 @@ impl State {
     pub fn key(&self) -> Ball {
         self.key_ball.unwrap_or_else(|| panic!("no key ball in {self:?}"))
     }
+}
+
+/// One hold of keys: the log records of its presses and releases, and the bounds on how long
+/// the window saw the keys down.
+#[derive(Clone, Copy, Debug)]
+pub struct Held {
+    /// Indices in the report's log of the first press and the last release.
+    pub first: usize,
+    pub last: usize,
+    /// The window saw the first press after the keys were sent down and before this test read
+    /// its log line, and the last release likewise: so the keys were down, to the window, for
+    /// at least `shortest` and at most `longest` seconds.
+    pub shortest: f64,
+    pub longest: f64,
 }
 
 /// The instants around one xdotool command: it started at `sent`, and had returned (so the X
@@ -227,7 +245,17 @@ impl Session {
                 sink.more.notify_all();
             }
         });
-        let mut s = Session { display, window: String::new(), dir, report, lines, app: Killed(child), _xvfb: xvfb };
+        let mut s = Session {
+            display,
+            window: String::new(),
+            dir,
+            report,
+            lines,
+            commands: 0,
+            sent: Vec::new(),
+            app: Killed(child),
+            _xvfb: xvfb,
+        };
         // The first start on a machine compiles Mesa's shaders (~1 s); 60 s is for a loaded one.
         s.wait_line("first frame drawn", Duration::from_secs(60));
         let out = xdotool_output(&s.display, &["search", "--onlyvisible", "--name", "ballfield"]);
@@ -274,6 +302,45 @@ impl Session {
         self.xdotool(&["key", key])
     }
 
+    /// Presses and releases `keysym` (winit's `code`), a hotkey that gives one command, and
+    /// waits until the window has carried it out. Returns the command's index in the log.
+    pub fn press(&mut self, keysym: &str, code: &'static str) -> usize {
+        self.key(keysym);
+        self.sent.push(code);
+        self.commands += 1;
+        self.wait_command(self.commands);
+        self.commands - 1
+    }
+
+    /// A command that is not a key (the mouse's), given by `f`: waits until it is carried out
+    /// and returns its index in the log.
+    pub fn expect_command(&mut self) -> usize {
+        self.commands += 1;
+        self.wait_command(self.commands);
+        self.commands - 1
+    }
+
+    /// Holds the arrow keys `keys` (`(keysym, winit's code)`) down together for `seconds`.
+    pub fn hold(&mut self, keys: &[(&str, &'static str)], seconds: f64) -> Held {
+        let syms: Vec<&str> = keys.iter().map(|k| k.0).collect();
+        let first = self.commands + 1;
+        let down = self.key_down(&syms);
+        self.commands += keys.len();
+        let pressed_seen = self.wait_command(first);
+        self.wait_command(self.commands);
+        std::thread::sleep(Duration::from_secs_f64(seconds));
+        let up = self.key_up(&syms);
+        self.commands += keys.len();
+        let released_seen = self.wait_command(self.commands);
+        self.sent.extend(keys.iter().map(|k| k.1));
+        Held {
+            first: first - 1,
+            last: self.commands - 1,
+            shortest: (up.sent - pressed_seen).as_secs_f64(),
+            longest: (released_seen - down.sent).as_secs_f64(),
+        }
+    }
+
     pub fn key_down(&self, keys: &[&str]) -> Sent {
         self.xdotool(&[&["keydown"], keys].concat())
     }
@@ -314,23 +381,31 @@ impl Session {
         if let Ok(mut f) = std::fs::File::open(&self.report) {
             let _ = f.read_to_string(&mut json);
         }
-        assert!(!json.is_empty(), "the window ({status}) wrote no report to {}; stderr:\n{stderr}", self.report.display());
+        assert!(
+            !json.is_empty(),
+            "the window ({status}) wrote no report to {}; stderr:\n{stderr}",
+            self.report.display()
+        );
         let report = serde_json::from_str(&json).unwrap_or_else(|e| panic!("the report does not parse: {e}\n{json}"));
-        Finished { status, report, json, stderr, dir: self.dir.clone() }
+        let (commands, sent) = (self.commands, std::mem::take(&mut self.sent));
+        Finished { status, commands, sent, report, json, stderr, dir: self.dir.clone() }
     }
 }
 
 impl Finished {
     /// The checks every session makes: a clean exit by `closed_by`, no errors, every key press
-    /// the test sent counted once under its key, and nothing else counted.
-    pub fn assert_clean(&self, closed_by: &str, keys_sent: &std::collections::BTreeMap<String, u64>) {
+    /// the test sent counted once under its key and nothing else counted, every command logged.
+    pub fn assert_clean(&self, closed_by: &str) {
         let r = &self.report;
+        let keys_sent = &tally(&self.sent);
         assert!(self.status.success(), "the window exited with {}; stderr:\n{}", self.status, self.stderr);
         assert_eq!(r.closed_by, closed_by, "what closed the window");
         assert!(r.errors.is_empty(), "the window reported errors: {:?}", r.errors);
         assert_eq!(&r.keys, keys_sent, "key presses counted by key (left: the window's, right: sent)");
         assert_eq!(r.key_presses, keys_sent.values().sum::<u64>(), "key presses counted");
         assert_eq!(r.log_dropped, 0);
+        let commands: Vec<&str> = r.log.iter().map(|r| r.command.as_str()).collect();
+        assert_eq!(r.log.len(), self.commands, "commands logged: {commands:?}");
         assert!(r.frames > 10, "only {} frames drawn", r.frames);
     }
 
