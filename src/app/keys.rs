@@ -5,6 +5,9 @@ use glam::DVec2;
 use winit::keyboard::KeyCode;
 
 use super::panel::Command;
+use Action::{Do, NextEngine, Pull};
+use Command as C;
+use KeyCode as K;
 
 /// Which way an arrow key pulls the key ball.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,10 +51,6 @@ pub struct Hotkey {
     pub what: &'static str,
     pub keys: &'static [(KeyCode, &'static str, Action)],
 }
-
-use Action::{Do, NextEngine, Pull};
-use Command as C;
-use KeyCode as K;
 
 /// Every hotkey of the window, in the order the help lists them.
 pub const HOTKEYS: &[Hotkey] = &[
