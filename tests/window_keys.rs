@@ -86,10 +86,11 @@ fn run(engine: &str) {
     // While paused the clocks stand still: this wait would move the ball ~2 m if they did not.
     std::thread::sleep(Duration::from_millis(300));
     let step = s.press("s", "KeyS");
-    // Long enough for the threaded engine's step (15 ms, ending at the next tick) to end.
-    std::thread::sleep(Duration::from_millis(200));
+    // Long enough for the threaded engine's step to end (15 ms, to the first tick after it:
+    // measured 20-25 ms); a step asked for meanwhile would be ignored.
+    std::thread::sleep(Duration::from_millis(300));
     let step2 = s.press("period", "Period");
-    std::thread::sleep(Duration::from_millis(200));
+    std::thread::sleep(Duration::from_millis(300));
     let resume = s.press("p", "KeyP");
     let reset = s.press("r", "KeyR");
     // Gravity on for a while, then off; the other effects on and off (collisions off and on).
@@ -125,6 +126,7 @@ fn run(engine: &str) {
     let at = |i: usize| &log[i];
 
     // ---- add and remove: which balls, and how many --------------------------------------
+    // Seen to fail with `-` bound to AddBall in the key table (the third removal added a ball).
     let mut added = Vec::new();
     for (k, &i) in add.iter().enumerate() {
         let rec = at(i);
@@ -148,6 +150,9 @@ fn run(engine: &str) {
     assert_eq!((r.balls_added, r.balls_removed), (3, 4));
 
     // ---- pause, steps, resume -----------------------------------------------------------
+    // Seen to fail with the lockstep engine not pausing (the paused flags), and with a step of
+    // 30 ms (the lockstep clock advanced 30 ms; the threaded bound, a step plus a tick gap,
+    // cannot tell 30 ms from a step that ended a tick late).
     let (p, s1, s2, res) = (at(pause), at(step), at(step2), at(resume));
     assert_eq!([&p.command, &s1.command, &s2.command, &res.command], ["TogglePause", "Step", "Step", "TogglePause"]);
     assert!(p.state.paused && s1.state.paused && s2.state.paused && !res.state.paused);
@@ -170,9 +175,12 @@ fn run(engine: &str) {
             assert!((STEP..=STEP + gap).contains(d), "threaded step advanced the clock {d} s ({advanced:?})");
         }
     }
-    // The key ball coasts at v: frozen while paused, moving v·dt over each step. The threaded
-    // balls finish the cycle they are in when paused (measured: within 1e-2 m of v·t).
-    let slack = if engine == "lockstep" { 1e-9 } else { v.length() * 3.0 * DT };
+    // The key ball coasts at v: frozen while paused, moving v·dt over each step (the 300 ms wait
+    // would move it ~2 m). A threaded ball is off the clock by how late its thread is when the
+    // pause and the resume come (its thread runs at idle priority, behind the window's
+    // drawing): measured 3e-5..4.6e-3 m at ~6 m/s, once 2.4e-2 m (4 ms late). The bound allows
+    // 10 cycles late, as the pull's does.
+    let slack = if engine == "lockstep" { 1e-9 } else { v.length() * 10.0 * DT };
     for (a, b) in [(p, s1), (s1, s2), (s2, res)] {
         let (ka, kb) = (a.state.key(), b.state.key());
         let want = ka.position + v * (b.state.time - a.state.time);
@@ -182,6 +190,7 @@ fn run(engine: &str) {
     }
 
     // ---- reset --------------------------------------------------------------------------
+    // Seen to fail with R restarting from the balls as they are (3 balls, not the scene's 4).
     let rec = at(reset);
     assert_eq!(rec.command, "Reset");
     assert_eq!(rec.state.balls, SCENE_BALLS, "R brings back the scene's balls");
@@ -194,6 +203,7 @@ fn run(engine: &str) {
     assert!(restarted, "{engine}: the clock reads {} s after R", rec.state.time);
 
     // ---- effects ------------------------------------------------------------------------
+    // Seen to fail with G's gravity twice the scene's (Δv = -7.67 m/s after 0.391 s).
     let mut effects: Vec<String> = vec!["collisions".into()];
     assert_eq!(at(reset).state.effects, effects);
     for (&i, name) in toggles.iter().zip(
@@ -227,6 +237,8 @@ fn run(engine: &str) {
     assert!((dy + 0.5 * G * t * t).abs() <= G * t * (DT + 10.0 * DT), "{engine}: fell {dy} m in {t} s");
 
     // ---- overlays, panel, help ----------------------------------------------------------
+    // Seen to fail with V toggling the traces; and, before the window kept its hotkeys from
+    // egui, at Tab: egui's focus took every key after it (no H, no command 31, within 30 s).
     let flags = |r: &Record| [r.state.vectors, r.state.centre_of_mass, r.state.traces];
     let expect = [
         [true, false, false],
@@ -244,6 +256,7 @@ fn run(engine: &str) {
     assert_eq!([at(help[0]).state.help, at(help[1]).state.help], [true, false], "H shows the help, F1 hides it");
 
     // ---- engine switch: the balls carry on ----------------------------------------------
+    // Seen to fail with E restarting from the scene's balls (the key ball's velocity went to 0).
     let before = at(engines[0] - 1);
     for (&i, want) in engines.iter().zip([other(engine), engine]) {
         let rec = at(i);
@@ -274,6 +287,7 @@ fn run(engine: &str) {
     assert!(before.state.key().velocity.y < -2.0, "the key ball should be falling: {:?}", before.state.key());
 
     // ---- scenes 1-8 ---------------------------------------------------------------------
+    // Seen to fail with 1 bound to the second scene.
     for (k, &i) in scenes.iter().enumerate() {
         let rec = at(i);
         let (name, _) = scenes::BUILTIN[k];
