@@ -16,26 +16,23 @@ use std::time::{Duration, Instant};
 use glam::DVec2;
 use serde::Serialize;
 use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 pub use keys::{Action, Arrow, HOTKEYS, Hotkey, help_lines};
-pub use panel::{Command, MOUSE_HELP};
+pub use panel::{Command, EnergySample, MOUSE_HELP, PANEL_WIDTH, PanelFrame, PanelPainter, Readouts, Settings, run_ui};
 
 use crate::engine::{self, Engine, EngineKind};
 use crate::physics::{
     Attraction, Ball, BallId, BallKind, Bodies, Effects, attraction_potential_energy, gravity_potential_energy,
     kinetic_energy, momentum,
 };
-use crate::render::{
-    BallSprite, BallStyle, FrameSnapshot, Gpu, Layout, Renderer, ball_colour, instance_descriptor, palette,
-    raise_render_priority, with_style,
-};
+use crate::render::{FrameSnapshot, Gpu, Layout, Renderer, instance_descriptor, palette, raise_render_priority};
 use crate::scene::Scene;
 use crate::scenes;
-use panel::{EnergySample, Readouts, Settings};
 
 /// How the window runs.
 #[derive(Clone, Debug)]
@@ -184,7 +181,7 @@ struct Graphics {
     gpu: Gpu,
     renderer: Renderer,
     egui_state: egui_winit::State,
-    egui_renderer: egui_wgpu::Renderer,
+    panel: PanelPainter,
     /// The last full frame, field and panel (see `draw`); `None` if the surface cannot be
     /// copied into.
     layer: Option<wgpu::Texture>,
@@ -262,7 +259,6 @@ fn settings_for(scene: &Scene, index: usize, effects: &Effects) -> Settings {
 }
 
 const HISTORY_SECONDS: f64 = 20.0;
-const PANEL_WIDTH: f32 = 300.0;
 /// How often the panel's readouts are redrawn when nothing else changes it.
 const PANEL_REFRESH: Duration = Duration::from_millis(250);
 
@@ -438,11 +434,7 @@ impl App {
         }
         surface.configure(&gpu.device, &config);
         let renderer = Renderer::new(&gpu.device, &gpu.queue, config.format);
-        let egui_renderer = egui_wgpu::Renderer::new(
-            &gpu.device,
-            config.format,
-            egui_wgpu::RendererOptions { dithering: false, ..Default::default() },
-        );
+        let panel = PanelPainter::new(&gpu.device, config.format);
         let egui_state = egui_winit::State::new(
             self.egui_ctx.clone(),
             egui::ViewportId::ROOT,
@@ -456,7 +448,7 @@ impl App {
         self.report.present_mode = format!("{:?}", config.present_mode);
         self.readouts.adapter = gpu.describe();
         log::info!("window on {} ({:?}, {:?})", gpu.describe(), config.format, config.present_mode);
-        Ok(Graphics { window, surface, config, gpu, renderer, egui_state, egui_renderer, layer: None, copy_to_surface })
+        Ok(Graphics { window, surface, config, gpu, renderer, egui_state, panel, layer: None, copy_to_surface })
     }
 
     // ---- commands -------------------------------------------------------------------------
@@ -812,44 +804,32 @@ impl App {
     fn fill_snapshot(&mut self) {
         let pull = self.pull_force();
         let s = &mut self.snapshot;
-        s.field = self.engine.field();
-        s.balls.clear();
-        s.overlays.clear();
-        s.balls.extend(self.balls.iter().map(|b| BallSprite {
-            x: b.position.x as f32,
-            y: b.position.y as f32,
-            radius: b.radius() as f32,
-            colour: ball_colour(b.kind, b.id.0),
-        }));
+        s.fill(self.engine.field(), &self.balls);
         if let Some(g) = &self.grab {
             let p = self.cursor.zip(self.layout).map(|(c, l)| l.to_metres(c)).unwrap_or(g.ball.position);
-            s.balls.push(BallSprite {
-                x: p.x as f32,
-                y: p.y as f32,
-                radius: g.ball.radius() as f32,
-                colour: with_style(ball_colour(g.ball.kind, g.ball.id.0), BallStyle::Held),
-            });
+            s.add_held(&g.ball, p);
         }
         if self.settings.traces {
             for t in self.traces.values() {
-                let points: Vec<DVec2> = t.iter().copied().collect();
-                s.add_trace(&points, palette::TRACE);
+                s.add_trace(t.iter().copied(), palette::TRACE);
             }
         }
         if self.settings.vectors {
-            s.add_velocity_vectors(self.balls.iter().map(|b| (b.position, b.velocity)), 0.25);
+            s.add_velocity_vectors(&self.balls, 0.25);
         }
-        if pull != DVec2::ZERO
-            && let Some(k) = self.balls.iter().find(|b| b.kind == BallKind::Key)
-        {
-            // The pull as a white line from the key ball: 1 m per 100 N.
-            s.overlays.push(crate::render::Segment::line(k.position, k.position + pull / 100.0, 2.0, palette::PULL));
+        if let Some(k) = self.balls.iter().find(|b| b.kind == BallKind::Key) {
+            s.add_pull(k.position, pull);
         }
-        if self.settings.centre_of_mass && !self.balls.is_empty() {
-            let m: f64 = self.balls.iter().map(|b| b.mass).sum();
-            let com = self.balls.iter().map(|b| b.position * b.mass).sum::<DVec2>() / m;
-            s.add_cross(com, 1.5, palette::CENTRE_OF_MASS);
+        if self.settings.centre_of_mass {
+            s.add_centre_of_mass(&self.balls);
         }
+    }
+
+    /// Fits the field into what the panel leaves of the window and fills the snapshot.
+    fn fill_snapshot_beside_panel(&mut self, size: PhysicalSize<u32>) {
+        let panel_px = self.panel_width_px as f64;
+        self.snapshot.viewport = Some([0.0, 0.0, (size.width as f64 - panel_px).max(1.0), size.height as f64]);
+        self.fill_snapshot();
     }
 
     // ---- drawing --------------------------------------------------------------------------
@@ -865,200 +845,117 @@ impl App {
         }
     }
 
+    /// One frame: the surface's next texture, the field and the panel drawn into it, presented,
+    /// and the time it took recorded.
     fn draw(&mut self, gfx: &mut Graphics, event_loop: &ActiveEventLoop) {
         let t0 = Instant::now();
         let size = gfx.window.inner_size();
         if size.width == 0 || size.height == 0 {
             return; // minimised
         }
-        let frame = match gfx.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(f) => f,
-            wgpu::CurrentSurfaceTexture::Suboptimal(f) => {
-                // Draw this one, reconfigure for the next.
-                gfx.config.width = size.width;
-                gfx.config.height = size.height;
-                f
-            }
-            wgpu::CurrentSurfaceTexture::Outdated => {
-                gfx.config.width = size.width;
-                gfx.config.height = size.height;
-                gfx.surface.configure(&gfx.gpu.device, &gfx.config);
-                gfx.window.request_redraw();
-                return;
-            }
-            wgpu::CurrentSurfaceTexture::Lost => {
-                // The surface itself is gone: make a new one for the same window.
-                match gfx.gpu.instance.create_surface(gfx.window.clone()) {
-                    Ok(surface) => {
-                        gfx.surface = surface;
-                        gfx.config.width = size.width;
-                        gfx.config.height = size.height;
-                        gfx.surface.configure(&gfx.gpu.device, &gfx.config);
-                        gfx.window.request_redraw();
-                    }
-                    Err(e) => log::error!("the window's surface was lost and cannot be made again: {e}"),
-                }
-                return;
-            }
-            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return,
-            other => {
-                log::warn!("cannot get the next frame: {other:?}");
-                return;
-            }
-        };
-        let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let device = gfx.gpu.device.clone();
-        let queue = gfx.gpu.queue.clone();
+        let Some(frame) = gfx.acquire_frame(size) else { return };
+        if self.panel_is_cached(gfx, size) {
+            self.draw_with_cached_panel(gfx, &frame.texture, size);
+        } else {
+            self.draw_with_new_panel(gfx, &frame.texture, size, event_loop);
+        }
+        self.layout = Some(self.snapshot.layout(size.width, size.height));
+        gfx.present(frame, size);
+        self.time_frame(gfx, t0);
+    }
 
-        // The panel is drawn (egui run, tessellated and rasterised) only when it may have
-        // changed: on input, after a command, while egui animates or shows a window over the
-        // field, and every PANEL_REFRESH for its readouts. In between, the frame draws the field
-        // and copies the panel's pixels from the layer it was last drawn into. On a CPU adapter
-        // rasterising the panel costs ~15 ms, the copy well under 1.
-        let cached = gfx.layer.as_ref().is_some_and(|l| (l.width(), l.height()) == (size.width, size.height))
+    /// Whether this frame can copy the panel's pixels instead of drawing it.
+    ///
+    /// The panel is drawn (egui run, tessellated and rasterised) only when it may have changed: on
+    /// input, after a command, while egui animates or shows a window over the field, and every
+    /// PANEL_REFRESH for its readouts. In between, the frame draws the field and copies the
+    /// panel's pixels from the layer it was last drawn into. On a CPU adapter rasterising the
+    /// panel costs ~15 ms, the copy well under 1.
+    fn panel_is_cached(&self, gfx: &Graphics, size: PhysicalSize<u32>) -> bool {
+        gfx.layer.as_ref().is_some_and(|l| (l.width(), l.height()) == (size.width, size.height))
             && self.panel_width_px > 0
             && self.show_panel
             && !self.show_help
             && !self.panel_dirty
-            && Instant::now() < self.panel_due;
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("window frame") });
-        if cached {
-            let panel_px = self.panel_width_px as f64;
-            self.snapshot.viewport = Some([0.0, 0.0, (size.width as f64 - panel_px).max(1.0), size.height as f64]);
-            self.fill_snapshot();
-            gfx.renderer.encode(&mut encoder, &view, &self.snapshot);
-            let layer = gfx.layer.as_ref().expect("checked above");
-            let x = size.width.saturating_sub(self.panel_width_px);
-            let at = |texture| wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d { x, y: 0, z: 0 },
-                aspect: wgpu::TextureAspect::All,
-            };
-            encoder.copy_texture_to_texture(
-                at(layer),
-                at(&frame.texture),
-                wgpu::Extent3d { width: size.width - x, height: size.height, depth_or_array_layers: 1 },
-            );
-            queue.submit([encoder.finish()]);
-        } else {
-            // The panel first: it decides how much room the field gets.
-            let raw = gfx.egui_state.take_egui_input(&gfx.window);
-            let mut commands = Vec::new();
-            let mut show_help = self.show_help;
-            let mut panel_width_points = 0.0;
-            let show_panel = self.show_panel;
-            let (readouts, settings) = (&self.readouts, &self.settings);
-            let output = self.egui_ctx.run_ui(raw, |ui| {
-                if show_panel {
-                    // No background of egui's own: the renderer's letterbox already paints the
-                    // panel's area, opaque and cheaply, while egui's textured shader filling
-                    // 300×680 pixels cost ~12 ms a frame on a CPU adapter.
-                    let frame = egui::Frame::NONE.inner_margin(egui::Margin::symmetric(10, 8));
-                    let panel = egui::Panel::right("panel").resizable(false).exact_size(PANEL_WIDTH).frame(frame);
-                    let r = panel.show(ui, |ui| {
-                        egui::ScrollArea::vertical().show(ui, |ui| panel::show(ui, readouts, settings, &mut commands));
-                    });
-                    panel_width_points = r.response.rect.width();
-                } else {
-                    egui::Area::new(egui::Id::unique("hint")).fixed_pos(egui::pos2(14.0, 12.0)).show(ui.ctx(), |ui| {
-                        ui.label(egui::RichText::new("Tab: panel · H: help").color(egui::Color32::GRAY));
-                    });
-                }
-                if show_help {
-                    panel::help(ui.ctx(), &mut show_help);
-                }
-            });
-            self.show_help = show_help;
-            gfx.egui_state.handle_platform_output(&gfx.window, output.platform_output);
-            let ppp = output.pixels_per_point;
-            // egui wants another pass soon (an animation, a hover): do not cache the next frame.
-            let soon =
-                output.viewport_output.get(&egui::ViewportId::ROOT).is_some_and(|v| v.repaint_delay < PANEL_REFRESH);
-            self.panel_dirty = soon || self.egui_ctx.is_pointer_over_egui();
-            self.panel_due = Instant::now() + PANEL_REFRESH;
-            for c in commands {
-                self.apply(c, event_loop);
-            }
+            && Instant::now() < self.panel_due
+    }
 
-            let panel_px = (panel_width_points * ppp).ceil() as f64;
-            self.panel_width_px = panel_px as u32;
-            self.snapshot.viewport = Some([0.0, 0.0, (size.width as f64 - panel_px).max(1.0), size.height as f64]);
-            self.fill_snapshot();
+    /// The field drawn into `frame`, and the panel's pixels copied from the layer.
+    fn draw_with_cached_panel(&mut self, gfx: &mut Graphics, frame: &wgpu::Texture, size: PhysicalSize<u32>) {
+        let view = frame.create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = gfx.encoder();
+        self.fill_snapshot_beside_panel(size);
+        gfx.renderer.encode(&mut encoder, &view, &self.snapshot);
+        let layer = gfx.layer.as_ref().expect("a cached panel has its layer");
+        copy_columns(&mut encoder, layer, frame, size.width.saturating_sub(self.panel_width_px), size);
+        gfx.gpu.queue.submit([encoder.finish()]);
+    }
 
-            let jobs = self.egui_ctx.tessellate(output.shapes, ppp);
-            let screen =
-                egui_wgpu::ScreenDescriptor { size_in_pixels: [size.width, size.height], pixels_per_point: ppp };
-            for (id, deltas) in &output.textures_delta.set {
-                for delta in deltas {
-                    gfx.egui_renderer.update_texture(&device, &queue, *id, delta);
-                }
-            }
-            // Drawn into the layer (kept for the cached frames) when the surface can be copied
-            // into, else straight into the surface.
-            if gfx.copy_to_surface
-                && gfx.layer.as_ref().is_none_or(|l| (l.width(), l.height()) != (size.width, size.height))
-            {
-                gfx.layer = Some(device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("panel layer"),
-                    size: wgpu::Extent3d { width: size.width, height: size.height, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: gfx.config.format,
-                    // COPY_DST: the renderer may splat small balls into it (`BallPath::Splat`).
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::COPY_SRC
-                        | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                }));
-            }
-            let layer_view = gfx.layer.as_ref().map(|l| l.create_view(&wgpu::TextureViewDescriptor::default()));
-            let target = layer_view.as_ref().unwrap_or(&view);
-            gfx.renderer.encode(&mut encoder, target, &self.snapshot);
-            let extra = gfx.egui_renderer.update_buffers(&device, &queue, &mut encoder, &jobs, &screen);
-            {
-                let mut pass = encoder
-                    .begin_render_pass(&wgpu::RenderPassDescriptor {
-                        label: Some("egui"),
-                        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                            view: target,
-                            depth_slice: None,
-                            resolve_target: None,
-                            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                        })],
-                        depth_stencil_attachment: None,
-                        timestamp_writes: None,
-                        occlusion_query_set: None,
-                        multiview_mask: None,
-                    })
-                    .forget_lifetime();
-                gfx.egui_renderer.render(&mut pass, &jobs, &screen);
-            }
-            if let Some(layer) = &gfx.layer {
-                encoder.copy_texture_to_texture(
-                    layer.as_image_copy(),
-                    frame.texture.as_image_copy(),
-                    wgpu::Extent3d { width: size.width, height: size.height, depth_or_array_layers: 1 },
-                );
-            }
-            queue.submit(extra.into_iter().chain([encoder.finish()]));
-            for id in &output.textures_delta.free {
-                gfx.egui_renderer.free_texture(id);
-            }
+    /// The panel laid out (the commands from it carried out), then the field and the panel drawn
+    /// into the layer, which is copied into `frame`; or straight into `frame` when the surface
+    /// cannot be copied into.
+    fn draw_with_new_panel(
+        &mut self,
+        gfx: &mut Graphics,
+        frame: &wgpu::Texture,
+        size: PhysicalSize<u32>,
+        event_loop: &ActiveEventLoop,
+    ) {
+        // The panel first: it decides how much room the field gets.
+        let output = self.run_panel(gfx, event_loop);
+        self.fill_snapshot_beside_panel(size);
+        gfx.ensure_layer(size);
+        let view = frame.create_view(&wgpu::TextureViewDescriptor::default());
+        let layer_view = gfx.layer.as_ref().map(|l| l.create_view(&wgpu::TextureViewDescriptor::default()));
+        let target = layer_view.as_ref().unwrap_or(&view);
+        let mut encoder = gfx.encoder();
+        gfx.renderer.encode(&mut encoder, target, &self.snapshot);
+        let (device, queue) = (&gfx.gpu.device, &gfx.gpu.queue);
+        let extra = gfx.panel.encode(
+            &self.egui_ctx,
+            device,
+            queue,
+            &mut encoder,
+            target,
+            [size.width, size.height],
+            output.shapes,
+            &output.textures_delta,
+            output.pixels_per_point,
+        );
+        if let Some(layer) = &gfx.layer {
+            copy_columns(&mut encoder, layer, frame, 0, size);
         }
-        self.layout = Some(self.snapshot.layout(size.width, size.height));
-        gfx.window.pre_present_notify();
-        queue.present(frame);
-        if gfx.config.width != size.width || gfx.config.height != size.height {
-            gfx.surface.configure(&gfx.gpu.device, &gfx.config);
-        }
+        queue.submit(extra.into_iter().chain([encoder.finish()]));
+        gfx.panel.free(&output.textures_delta);
+    }
 
-        // Wait for the frame to be drawn: on a CPU adapter the drawing is real work on Mesa's
-        // threads, and a frame's time should include it (the next frame could not start its
-        // drawing earlier anyway). The measured time is the panel's "frame" figure and the
-        // report's frame_ms_median.
+    /// Runs the UI for this frame, hands egui's platform output to the window and carries out
+    /// the commands from the panel. Returns what is left to draw.
+    fn run_panel(&mut self, gfx: &mut Graphics, event_loop: &ActiveEventLoop) -> egui::FullOutput {
+        let raw = gfx.egui_state.take_egui_input(&gfx.window);
+        let (readouts, settings) = (&self.readouts, &self.settings);
+        let mut ui = panel::run_ui(&self.egui_ctx, raw, readouts, settings, self.show_panel, &mut self.show_help);
+        let platform = std::mem::take(&mut ui.output.platform_output);
+        gfx.egui_state.handle_platform_output(&gfx.window, platform);
+        let ppp = ui.output.pixels_per_point;
+        // egui wants another pass soon (an animation, a hover): do not cache the next frame.
+        let soon =
+            ui.output.viewport_output.get(&egui::ViewportId::ROOT).is_some_and(|v| v.repaint_delay < PANEL_REFRESH);
+        self.panel_dirty = soon || self.egui_ctx.is_pointer_over_egui();
+        self.panel_due = Instant::now() + PANEL_REFRESH;
+        for c in ui.commands {
+            self.apply(c, event_loop);
+        }
+        self.panel_width_px = (ui.width_points * ppp).ceil() as u32;
+        ui.output
+    }
+
+    /// Waits for the frame to be drawn and records its time.
+    ///
+    /// On a CPU adapter the drawing is real work on Mesa's threads, and a frame's time should
+    /// include it (the next frame could not start its drawing earlier anyway). The measured time
+    /// is the panel's "frame" figure and the report's frame_ms_median.
+    fn time_frame(&mut self, gfx: &Graphics, t0: Instant) {
         let _ = gfx.gpu.device.poll(wgpu::PollType::wait_indefinitely());
         let now = Instant::now();
         log::trace!("frame drawn in {:.2} ms", (now - t0).as_secs_f64() * 1e3);
@@ -1077,6 +974,106 @@ impl App {
         recent.sort_by(f64::total_cmp);
         self.readouts.frame_ms = recent[recent.len() / 2] * 1e3;
     }
+}
+
+impl Graphics {
+    fn encoder(&self) -> wgpu::CommandEncoder {
+        self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("window frame") })
+    }
+
+    /// The surface's next texture, or `None` when there is none to draw this time (the surface
+    /// is then reconfigured or made again as it asks, and another redraw requested).
+    fn acquire_frame(&mut self, size: PhysicalSize<u32>) -> Option<wgpu::SurfaceTexture> {
+        match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(f) => Some(f),
+            wgpu::CurrentSurfaceTexture::Suboptimal(f) => {
+                // Draw this one, reconfigure for the next.
+                self.config.width = size.width;
+                self.config.height = size.height;
+                Some(f)
+            }
+            wgpu::CurrentSurfaceTexture::Outdated => {
+                self.config.width = size.width;
+                self.config.height = size.height;
+                self.surface.configure(&self.gpu.device, &self.config);
+                self.window.request_redraw();
+                None
+            }
+            wgpu::CurrentSurfaceTexture::Lost => {
+                // The surface itself is gone: make a new one for the same window.
+                match self.gpu.instance.create_surface(self.window.clone()) {
+                    Ok(surface) => {
+                        self.surface = surface;
+                        self.config.width = size.width;
+                        self.config.height = size.height;
+                        self.surface.configure(&self.gpu.device, &self.config);
+                        self.window.request_redraw();
+                    }
+                    Err(e) => log::error!("the window's surface was lost and cannot be made again: {e}"),
+                }
+                None
+            }
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => None,
+            other => {
+                log::warn!("cannot get the next frame: {other:?}");
+                None
+            }
+        }
+    }
+
+    /// Makes the layer the panel is drawn into (kept for the cached frames) at the window's size,
+    /// when the surface can be copied into.
+    fn ensure_layer(&mut self, size: PhysicalSize<u32>) {
+        if !self.copy_to_surface
+            || self.layer.as_ref().is_some_and(|l| (l.width(), l.height()) == (size.width, size.height))
+        {
+            return;
+        }
+        self.layer = Some(self.gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("panel layer"),
+            size: wgpu::Extent3d { width: size.width, height: size.height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.config.format,
+            // COPY_DST: the renderer may splat small balls into it (`BallPath::Splat`).
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        }));
+    }
+
+    /// Presents `frame`, then reconfigures the surface if the window's size changed.
+    fn present(&mut self, frame: wgpu::SurfaceTexture, size: PhysicalSize<u32>) {
+        self.window.pre_present_notify();
+        self.gpu.queue.present(frame);
+        if self.config.width != size.width || self.config.height != size.height {
+            self.surface.configure(&self.gpu.device, &self.config);
+        }
+    }
+}
+
+/// Records the copy of the columns from `x` to the right edge of a `size` window from `from`
+/// into `to`, at the same place.
+fn copy_columns(
+    encoder: &mut wgpu::CommandEncoder,
+    from: &wgpu::Texture,
+    to: &wgpu::Texture,
+    x: u32,
+    size: PhysicalSize<u32>,
+) {
+    let at = |texture| wgpu::TexelCopyTextureInfo {
+        texture,
+        mip_level: 0,
+        origin: wgpu::Origin3d { x, y: 0, z: 0 },
+        aspect: wgpu::TextureAspect::All,
+    };
+    encoder.copy_texture_to_texture(
+        at(from),
+        at(to),
+        wgpu::Extent3d { width: size.width - x, height: size.height, depth_or_array_layers: 1 },
+    );
 }
 
 /// The energies (J) and momentum (kg·m/s) of one diagnostics sample.

@@ -34,26 +34,17 @@ use rayon::prelude::*;
 use crate::engine::EngineError;
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Drag, Effects, Field, Forces, Integrator,
-    IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, PointForce, WallImpulses, contact_ball_wall, drag_rate,
+    IntegratorScratch, PointForce, SpanRates, StepPolicy, WallImpulses, cap_speed, contact_ball_wall, drag_rate,
     drag_rate_bound, integrate, measure,
 };
+#[cfg(doc)]
+use crate::physics::{MAX_SPEED, MAX_TRAVEL};
 use crate::scene::Scene;
 use contact_solver::ContactSolver;
 pub use contact_solver::PARALLEL_MIN_PAIRS;
 
-/// Largest distance a ball may travel in one (sub-)step with collisions on, in radii.
-pub const MAX_TRAVEL: f64 = 0.5;
 /// Passes of the contact solver over the touching pairs in each (sub-)step.
 pub const CONTACT_ITERATIONS: usize = 4;
-/// Most sub-steps one step is split into.
-pub const MAX_SUBSTEPS: u32 = 4096;
-/// Fastest a ball may move, m/s: a guard rail, not physics. A field whose dynamics are faster
-/// than even [`MAX_SUBSTEPS`] sub-steps resolve (a 1 g ball of 2 m thrown into stiff drag, a
-/// pair of 1e6 kg grains orbiting at 1e7 rad/s with G = 1) can still run away under an explicit
-/// integrator; its speeds are then capped here (and counted in [`StepCounters::speed_limited`])
-/// so the state stays finite. No scene a person plays comes near it (the hard cases top out at
-/// 2,000 m/s), and a run that hits it says so in its report.
-pub const MAX_SPEED: f64 = 1e5;
 /// Fewest balls for which the phases are shared out over threads (below it, one thread is faster
 /// than the hand-over).
 pub const PARALLEL_MIN_BALLS: usize = 4096;
@@ -256,7 +247,7 @@ impl Lockstep {
     }
 
     /// Turns the automatic step splitting (fast balls, stiff drag, fast orbits; see
-    /// [`Lockstep::step`]) on or off. On by default; the accuracy report turns it off to measure
+    /// [`StepPolicy`]) on or off. On by default; the accuracy report turns it off to measure
     /// each integrator at exactly the step it was given.
     pub fn set_adaptive_substeps(&mut self, on: bool) {
         self.adaptive_substeps = on;
@@ -398,29 +389,22 @@ impl Lockstep {
     }
 
     fn step_here(&mut self) {
-        // With collisions on, a ball may move at most MAX_TRAVEL of its radius per (sub-)step, so
-        // two approaching balls can never jump past each other between two contact checks; with
-        // drag on, drag may not be stiff for the step. A step that breaks either is split into
-        // equal sub-steps (at most MAX_SUBSTEPS). Ordinary fields pay one pass over the speeds.
-        // The split is re-judged before every sub-step, over the time left: a collision in the
-        // middle of a step can make a ball fast, or drag on a light ball stiff, at once.
-        // No sub-step is shorter than dt / MAX_SUBSTEPS, so a step takes at most MAX_SUBSTEPS of
-        // them (+1 for a rounding crumb) — and never ends on one long remainder, which is what
-        // capping the *count* did: a field that wanted more than the cap all the way through then
-        // spent its last sub-step on a third of dt and blew up (found by tests/fuzz.rs).
-        let shortest = self.dt / MAX_SUBSTEPS as f64;
+        // The step is split into sub-steps by the step policy (`StepPolicy`: fast balls with
+        // collisions on, stiff drag, fast orbits; its floor and drag guard rail), re-judged before
+        // every sub-step over the time left: a collision in the middle of a step can make a ball
+        // fast, or drag on a light ball stiff, at once. Ordinary fields pay one pass over the
+        // speeds, and that pass is the last sub-step's finishing pass.
+        let policy = StepPolicy::new(self.dt);
         let mut remaining = self.dt;
         let mut taken = 0u32;
         while remaining > 0.0 {
-            let (n, drag_rate) = if self.adaptive_substeps { self.substeps_needed(remaining) } else { (1, 0.0) };
-            // The last sub-step is exactly what is left, so `remaining` becomes exactly zero.
-            let h = if n == 1 { remaining } else { (remaining / n as f64).max(shortest).min(remaining) };
-            // Drag the shortest sub-step still cannot resolve gets its guard rail.
-            let stiff = drag_rate * h > MAX_DRAG_STEP;
-            self.forces.set_drag_rate_limit(if stiff { 1.0 / h } else { f64::INFINITY });
-            self.counters.drag_limited += stiff as u64;
-            self.substep(h);
-            remaining -= h;
+            let rates = if self.adaptive_substeps { self.split_rates() } else { SpanRates::default() };
+            // With one sub-step, `h` is exactly what is left, so `remaining` becomes exactly zero.
+            let sub = policy.split(remaining, &rates);
+            self.forces.set_drag_rate_limit(sub.drag_rate_limit);
+            self.counters.drag_limited += sub.drag_limited() as u64;
+            self.substep(sub.h);
+            remaining -= sub.h;
             taken += 1;
         }
         self.counters.substeps += taken as u64;
@@ -430,18 +414,16 @@ impl Lockstep {
         self.time += self.dt;
     }
 
-    /// Sub-steps the next `span` seconds need: with collisions on, so that no ball travels more than
-    /// [`MAX_TRAVEL`] radii per sub-step (see [`Lockstep::step`]); with drag on, so that drag is
-    /// not stiff for the step (`drag_rate·h ≤ MAX_DRAG_STEP`: a light, large ball at high speed
-    /// would otherwise have its velocity overshoot through zero and blow up); with attraction on,
-    /// so that the fastest pair orbit is resolved (`ω·h ≤ MAX_ORBIT_STEP`). Returns the count and
-    /// the drag rate it was judged by (for the drag guard rail).
+    /// The rates the step policy splits the next sub-step by (see [`SpanRates`]): with collisions
+    /// on, the fastest travel in radii per second; with drag on, the stiffest drag, now or at the
+    /// terminal speed gravity, the pull or attraction drive a ball to; with attraction on, the
+    /// fastest pair orbit.
     ///
     /// The speeds are those the last sub-step's finishing pass measured as it went (see
     /// [`Lockstep::finish_phase`]): the same numbers a pass over the balls now would give, as
     /// nothing has moved since. Only when there are none (the first step, balls added or removed,
     /// effects changed) are they measured here.
-    fn substeps_needed(&mut self, span: f64) -> (u32, f64) {
+    fn split_rates(&mut self) -> SpanRates {
         let b = &self.bodies;
         let speeds = match self.split_speeds {
             Some(speeds) => speeds,
@@ -450,10 +432,9 @@ impl Lockstep {
                 SplitSpeeds::measure(collisions, drag, &b.velocity, &b.radius, &b.diameter, &b.mass)
             }
         };
-        let mut need = 1.0f64;
-        let mut drag_rate = 0.0f64;
+        let mut rates = SpanRates::default();
         if self.effects.collisions.is_some() {
-            need = need.max(speeds.travel2.sqrt() * span / MAX_TRAVEL);
+            rates.travel = speeds.travel2.sqrt();
         }
         if let Some(drag) = &self.effects.drag {
             // The rate now, and the rate at the terminal speed gravity drives each ball to (see
@@ -461,13 +442,11 @@ impl Lockstep {
             // key ball's under gravity and the pull.
             let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
             let c = *self.drag_c.get_or_insert_with(|| largest_drag_c(drag, &b.diameter, &b.mass));
-            let mut rate = speeds.drag_rate.max((gravity.length() * c).sqrt());
+            rates.drag = speeds.drag_rate.max((gravity.length() * c).sqrt());
             if let Some(k) = b.key_index().filter(|_| self.pull != DVec2::ZERO) {
                 let a = gravity + self.pull * b.inverse_mass[k];
-                rate = rate.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
+                rates.drag = rates.drag.max(drag_rate_bound(b.velocity[k], a, b.diameter[k], b.mass[k], drag));
             }
-            need = need.max(rate * span / MAX_DRAG_STEP);
-            drag_rate = rate;
         }
         if self.effects.attraction.is_some() {
             // The attraction pass measures the fastest orbit rate while it sums the forces
@@ -490,12 +469,10 @@ impl Lockstep {
                     self.forces.attraction_rates(props, &b.position)
                 }
             };
-            need = need.max(worst.sqrt() * span / MAX_ORBIT_STEP);
-            need = need.max(terminal * span / MAX_DRAG_STEP);
-            drag_rate = drag_rate.max(terminal);
+            rates.orbit = worst.sqrt();
+            rates.drag = rates.drag.max(terminal);
         }
-        let n = if need <= 1.0 { 1 } else { (need.ceil() as u32).min(MAX_SUBSTEPS) };
-        (n, drag_rate)
+        rates
     }
 
     /// One sub-step: three passes over the balls, however many effects are on —
@@ -619,7 +596,7 @@ impl Lockstep {
 
     /// The last pass of a sub-step, ball by ball in chunks: the speed capped at [`MAX_SPEED`], the
     /// walls (unless they went first: `walls`), and the speeds the next sub-step's split needs
-    /// (kept for [`Lockstep::substeps_needed`]).
+    /// (kept for [`Lockstep::split_rates`]).
     fn finish_phase(&mut self, pool: Option<&rayon::ThreadPool>, walls: bool) {
         let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
         let key = self.bodies.key_index();
@@ -750,7 +727,7 @@ pub fn state_hash(b: &Bodies) -> u64 {
     h
 }
 
-/// The speeds a step's split is judged by (see `Lockstep::substeps_needed`): the largest
+/// The speeds a step's split is judged by (see `Lockstep::split_rates`): the largest
 /// `(|v|/r)²` (with collisions on) and the largest drag rate (with drag on).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct SplitSpeeds {
@@ -865,20 +842,6 @@ impl LocalStep<'_> {
         integrate(self.method, self.dt, x, v, self.velocity_dependent, scratch, |x, v, a| {
             forces.local_accelerations(props, pull, x, v, a)
         });
-    }
-}
-
-/// Caps a speed at [`MAX_SPEED`] (a guard rail for fields faster than the sub-steps can resolve;
-/// see there). A NaN fails the first test too, and becomes zero rather than spreading. Returns
-/// whether it capped.
-#[inline]
-pub fn cap_speed(v: &mut DVec2) -> bool {
-    let speed2 = v.length_squared();
-    if speed2.is_nan() || speed2 > MAX_SPEED * MAX_SPEED {
-        *v = if speed2.is_finite() { *v * (MAX_SPEED / speed2.sqrt()) } else { DVec2::ZERO };
-        true
-    } else {
-        false
     }
 }
 

@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 use glam::DVec2;
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
-use serde::Deserialize;
+use serde::de::{Error as _, IntoDeserializer};
+use serde::{Deserialize, Deserializer};
 
 use crate::physics::{
     AIR_DENSITY, AIR_VISCOSITY, Attraction, Ball, BallId, BallKind, Collisions, DEFAULT_OPENING_ANGLE, Drag, Effects,
@@ -29,16 +30,23 @@ pub const MAX_OPENING_ANGLE: f64 = 1.0;
 /// the field, no two listed balls overlapping.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
+    /// The scene's `name`, as the window's title and the report give it.
     pub name: String,
+    /// One line on what the scene shows (may be empty).
     pub description: String,
+    /// The walled field: its size, m, and the walls' restitution.
     pub field: Field,
+    /// The integrator both engines step with, unless the command line picks another.
     pub integrator: Integrator,
     /// Lockstep time step, s.
     pub dt: f64,
+    /// Seed of the generated balls' positions and directions.
     pub seed: u64,
+    /// The most balls the scene may hold, adding at run time included.
     pub max_balls: usize,
     /// Period a threaded ball aims for between its updates, s.
     pub ball_cycle: f64,
+    /// The effects that are on; an absent one is off.
     pub effects: Effects,
     /// The force of the arrow keys on the key ball, N.
     pub pull: f64,
@@ -46,7 +54,8 @@ pub struct Scene {
     pub balls: Vec<Ball>,
 }
 
-/// Where a scene came from, for messages: a file path or a label such as `<builtin default>`.
+/// Where a scene came from, for messages: a file path, or for a built-in scene the path of the
+/// file it was built from (`assets/scenes/gas.toml`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Origin(pub String);
 
@@ -56,18 +65,42 @@ impl fmt::Display for Origin {
     }
 }
 
+/// Why a scene was refused. Every message starts with the file (and its line where there is one).
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The cause is part of the message (and deliberately not a `source()`, so that printing
-    /// the error chain does not say it twice).
+    /// The file cannot be read. The cause is part of the message (and deliberately not a
+    /// `source()`, so that printing the error chain does not say it twice).
     #[error("{file}: cannot read the scene: {cause}")]
-    Read { file: PathBuf, cause: std::io::Error },
+    Read {
+        /// The file asked for.
+        file: PathBuf,
+        /// What the system said.
+        cause: std::io::Error,
+    },
     /// The TOML is malformed, a key is unknown or missing, or a value has the wrong type.
     #[error("{file}:{line}: {message}")]
-    Parse { file: String, line: usize, message: String },
+    Parse {
+        /// Where the scene came from ([`Origin`]).
+        file: String,
+        /// 1-based; 0 when the parser gave no position.
+        line: usize,
+        /// The parser's message, after the key path (`` `balls[1].mass`: ``) when it is known.
+        message: String,
+    },
     /// A value parsed but is not allowed.
     #[error("{file}{}: `{key}` = {value}: {problem}", line.map(|l| format!(":{l}")).unwrap_or_default())]
-    Invalid { file: String, line: Option<usize>, key: String, value: String, problem: String },
+    Invalid {
+        /// Where the scene came from ([`Origin`]).
+        file: String,
+        /// 1-based line of the key, when the document writes it.
+        line: Option<usize>,
+        /// The key path, such as `balls[1].mass`.
+        key: String,
+        /// The value as read.
+        value: String,
+        /// What is wrong with it, as the end of a sentence (`must be between 0 and 1`).
+        problem: String,
+    },
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -82,6 +115,15 @@ fn exact<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Result<[f64;
 
 fn exact_opt<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Result<Option<[f64; N]>, D::Error> {
     exact::<D, N>(d).map(Some)
+}
+
+/// Reads an enum from its kebab-case name. Through serde's own enum support TOML would also take
+/// a table (`layout = { lattice = {} }`) and call a number "not a variant identifier"; read as a
+/// string first, a wrong type says "expected a string" as every other key does, and an unknown
+/// name is serde's `unknown variant` error, which [`Scene::from_toml_str`] words as a bad value.
+fn by_name<'de, D: Deserializer<'de>, T: Deserialize<'de>>(d: D) -> Result<T, D::Error> {
+    let name = String::deserialize(d)?;
+    T::deserialize(name.as_str().into_deserializer()).map_err(|e: serde::de::value::Error| D::Error::custom(e))
 }
 
 fn default_width() -> f64 {
@@ -187,18 +229,31 @@ impl Default for GravitySpec {
     }
 }
 
-#[derive(Deserialize, Debug)]
+/// `drag = { model = "quadratic", rho = …, cd = … }` or `{ model = "linear", mu = … }`; the model
+/// is quadratic when absent, and each key left out takes its model's default (air).
+///
+/// One table for both models, not [`Drag`]'s own tagged form (`#[serde(tag = "model")]`, which
+/// writes the same TOML): serde reads a tagged table into a buffer and the variant from the
+/// buffer, so an error inside it loses its key (`effects.drag` instead of `effects.drag.mu`, the
+/// table's line instead of the key's), and a tag cannot be left out (`drag = {}`).
+/// [`Checker::drag`] turns it into a [`Drag`] and refuses the other model's keys by name.
+#[derive(Deserialize, Debug, Default)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case", default)]
 struct DragSpec {
-    model: String,
+    #[serde(deserialize_with = "by_name")]
+    model: DragModel,
     rho: Option<f64>,
     cd: Option<f64>,
     mu: Option<f64>,
 }
-impl Default for DragSpec {
-    fn default() -> Self {
-        DragSpec { model: "quadratic".into(), rho: None, cd: None, mu: None }
-    }
+
+/// The models of [`Drag`], by their names in a scene file.
+#[derive(Deserialize, Debug, Default, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum DragModel {
+    #[default]
+    Quadratic,
+    Linear,
 }
 
 #[derive(Deserialize, Debug)]
@@ -254,16 +309,22 @@ struct GenerateSpec {
     /// `[x0, y0, x1, y1]` to place them in; the whole field by default.
     #[serde(default, deserialize_with = "exact_opt")]
     region: Option<[f64; 4]>,
-    /// `random` (uniform, no overlap) or `lattice` (hexagonal rows from the bottom-left).
-    #[serde(default = "default_layout")]
-    layout: String,
+    #[serde(default, deserialize_with = "by_name")]
+    layout: Layout,
     /// Gap between neighbours on a lattice, as a fraction of the diameter.
     #[serde(default)]
     gap: f64,
 }
 
-fn default_layout() -> String {
-    "random".into()
+/// How a `[[generate]]` entry places its balls.
+#[derive(Deserialize, Debug, Default, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum Layout {
+    /// Uniformly at random in the region, none overlapping another.
+    #[default]
+    Random,
+    /// Hexagonal rows from the region's bottom-left corner, `gap` diameters apart.
+    Lattice,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -275,6 +336,7 @@ enum Seg {
     Key(&'static str),
     Index(usize),
 }
+use Seg::{Index, Key};
 
 struct KeyPath(Vec<Seg>);
 
@@ -465,6 +527,12 @@ impl Scene {
             // the position instead.
             let path = path.or_else(|| offset.and_then(|o| path_at_offset(source, o)));
             let message = e.message().trim();
+            // A name that is not one of an enum's (`layout = "spiral"`) is a bad value like any
+            // other: say it the way the checks below do.
+            if let (Some(key), Some((value, problem))) = (&path, unknown_variant(message)) {
+                let line = offset.map(|_| line);
+                return SceneError::Invalid { file: origin.0.clone(), line, key: key.clone(), value, problem };
+            }
             // serde names a missing field in the message, not in the path: add it to the path.
             let path = match (path, message.strip_prefix("missing field `").and_then(|r| r.split('`').next())) {
                 (Some(p), Some(field)) if !p.is_empty() && p != "." => Some(format!("{p}.{field}")),
@@ -490,312 +558,85 @@ impl Scene {
     pub fn ball_cycle_duration(&self) -> std::time::Duration {
         std::time::Duration::from_secs_f64(self.ball_cycle)
     }
+}
 
-    /// The id the next added ball should get.
-    pub fn next_id(&self) -> BallId {
-        BallId(self.balls.iter().map(|b| b.id.0 + 1).max().unwrap_or(0))
+/// serde's ``unknown variant `x`, expected `a` or `b` `` as `(value, problem)`:
+/// `("\"x\"", "must be \"a\" or \"b\"")`.
+fn unknown_variant(message: &str) -> Option<(String, String)> {
+    let (name, expected) = message.strip_prefix("unknown variant `")?.split_once("`, expected ")?;
+    Some((format!("\"{name}\""), format!("must be {}", expected.replace('`', "\""))))
+}
+
+// ---------------------------------------------------------------------------------------------
+// From the parsed file to a checked scene, one part of the file at a time.
+
+/// The checked `[simulation]` table, but for the seed and `allow-overlap` (read as they are).
+struct Simulation {
+    integrator: Integrator,
+    dt: f64,
+    max_balls: usize,
+    ball_cycle: f64,
+}
+
+/// The listed balls, checked one by one: the key ball first (id 0) if there is one.
+struct Listed {
+    balls: Vec<Ball>,
+    /// Where each ball is written (`key-ball`, `balls[3]`), for messages.
+    paths: Vec<Vec<Seg>>,
+    /// The key ball's pull, N (0 without a key ball).
+    pull: f64,
+}
+
+/// A `[[generate]]` entry's checked numbers.
+struct Batch {
+    count: usize,
+    diameter: f64,
+    mass: f64,
+    speed: f64,
+    /// Gap between lattice neighbours, as a fraction of the diameter.
+    gap: f64,
+    /// `[x0, y0, x1, y1]`, inside the field and at least one diameter wide and high.
+    region: [f64; 4],
+}
+
+impl Batch {
+    /// A generated ball at `position`, moving at the batch's speed in a direction drawn from `rng`.
+    fn ball(&self, position: DVec2, rng: &mut Uniform, id: usize) -> Ball {
+        let angle = std::f64::consts::TAU * rng.next();
+        let velocity = self.speed * DVec2::new(angle.cos(), angle.sin());
+        Ball {
+            id: BallId(id as u32),
+            kind: BallKind::Ball,
+            position,
+            velocity,
+            mass: self.mass,
+            diameter: self.diameter,
+        }
     }
 }
 
+/// Checks the parsed file and builds the scene, in the order the file reads: the field, the
+/// simulation, the effects, the listed balls, then the generated balls around them.
 fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
-    use Seg::{Index, Key};
-    let field_path = [Key("field")];
-    let width = c.positive(&with(&field_path, Key("width")), file.field.width)?;
-    let height = c.positive(&with(&field_path, Key("height")), file.field.height)?;
-    let restitution = c.unit_interval(&with(&field_path, Key("restitution")), file.field.restitution)?;
-    let field = Field { width, height, restitution };
-
-    let sim = [Key("simulation")];
-    let integrator: Integrator =
-        file.simulation.integrator.parse().map_err(|e: crate::physics::UnknownIntegrator| {
-            c.invalid(with(&sim, Key("integrator")), format!("\"{}\"", e.0), e.to_string())
-        })?;
-    let dt = c.positive(&with(&sim, Key("dt")), file.simulation.dt)?;
-    if dt > 1.0 {
-        return Err(c.invalid(with(&sim, Key("dt")), dt, "must be at most 1 s"));
-    }
-    let max_balls = file.simulation.max_balls;
-    if max_balls < 1 || max_balls as u64 > HARD_MAX_BALLS as u64 {
-        return Err(c.invalid(
-            with(&sim, Key("max-balls")),
-            max_balls,
-            format!("must be between 1 and {HARD_MAX_BALLS}"),
-        ));
-    }
-    let max_balls = max_balls as usize;
-    let ball_cycle = c.positive(&with(&sim, Key("ball-cycle")), file.simulation.ball_cycle)?;
-    if ball_cycle > 0.1 {
-        return Err(c.invalid(with(&sim, Key("ball-cycle")), ball_cycle, "must be at most 0.1 s"));
-    }
-
-    let fx = [Key("effects")];
-    let mut effects = Effects::default();
-    if let Some(col) = &file.effects.collisions {
-        let p = with(&with(&fx, Key("collisions")), Key("restitution"));
-        effects.collisions = Some(Collisions { restitution: c.unit_interval(&p, col.restitution)? });
-    }
-    if let Some(g) = &file.effects.gravity {
-        let p = with(&with(&fx, Key("gravity")), Key("g"));
-        effects.gravity = Some(Gravity { g: c.vector(&p, g.g)? });
-    }
-    if let Some(d) = &file.effects.drag {
-        let base = with(&fx, Key("drag"));
-        let drag = match d.model.as_str() {
-            "quadratic" => {
-                if let Some(mu) = d.mu {
-                    return Err(c.invalid(
-                        with(&base, Key("mu")),
-                        mu,
-                        "belongs to model = \"linear\", not \"quadratic\"",
-                    ));
-                }
-                let rho = c.positive(&with(&base, Key("rho")), d.rho.unwrap_or(AIR_DENSITY))?;
-                let cd = c.positive(&with(&base, Key("cd")), d.cd.unwrap_or(SPHERE_DRAG_COEFFICIENT))?;
-                Drag::Quadratic { rho, cd }
-            }
-            "linear" => {
-                for (key, v) in [("rho", d.rho), ("cd", d.cd)] {
-                    if let Some(v) = v {
-                        return Err(c.invalid(
-                            with(&base, Key(key)),
-                            v,
-                            "belongs to model = \"quadratic\", not \"linear\"",
-                        ));
-                    }
-                }
-                Drag::Linear { mu: c.positive(&with(&base, Key("mu")), d.mu.unwrap_or(AIR_VISCOSITY))? }
-            }
-            other => {
-                return Err(c.invalid(
-                    with(&base, Key("model")),
-                    format!("\"{other}\""),
-                    "must be \"quadratic\" or \"linear\"",
-                ));
-            }
-        };
-        effects.drag = Some(drag);
-    }
-    if let Some(a) = &file.effects.attraction {
-        let base = with(&fx, Key("attraction"));
-        let g_constant = c.non_negative(&with(&base, Key("g-constant")), a.g_constant)?;
-        let p = with(&base, Key("opening-angle"));
-        let opening_angle = a.opening_angle;
-        if !(0.0..=MAX_OPENING_ANGLE).contains(&opening_angle) {
-            return Err(c.invalid(
-                p,
-                opening_angle,
-                format!("must be between 0 (the direct sum always) and {MAX_OPENING_ANGLE}"),
-            ));
-        }
-        effects.attraction = Some(Attraction { g_constant, opening_angle });
-    }
-
-    // Balls: checked one by one, then for overlaps, then generated around them.
-    let mut balls: Vec<Ball> = Vec::new();
-    let mut paths: Vec<Vec<Seg>> = Vec::new();
-    let check_ball = |path: &[Seg], position: [f64; 2], velocity: [f64; 2], mass: f64, diameter: f64| {
-        let mass = c.positive(&with(path, Key("mass")), mass)?;
-        let diameter = c.positive(&with(path, Key("diameter")), diameter)?;
-        if diameter > width.min(height) {
-            return Err(c.invalid(
-                with(path, Key("diameter")),
-                diameter,
-                format!("is larger than the field ({width} m × {height} m)"),
-            ));
-        }
-        let p = c.vector(&with(path, Key("position")), position)?;
-        let v = c.vector(&with(path, Key("velocity")), velocity)?;
-        if !field.contains(p.x, p.y, 0.5 * diameter, 0.0) {
-            return Err(c.invalid(
-                with(path, Key("position")),
-                format!("[{}, {}]", p.x, p.y),
-                format!("puts a ball of diameter {diameter} m outside the field ({width} m × {height} m)"),
-            ));
-        }
-        Ok((p, v, mass, diameter))
-    };
-    let mut pull = 0.0;
-    if let Some(k) = &file.key_ball {
-        let path = vec![Key("key-ball")];
-        let (p, v, mass, diameter) = check_ball(&path, k.position, k.velocity, k.mass, k.diameter)?;
-        pull = c.non_negative(&with(&path, Key("pull")), k.pull)?;
-        balls.push(Ball { id: BallId(0), kind: BallKind::Key, position: p, velocity: v, mass, diameter });
-        paths.push(path);
-    }
-    for (i, b) in file.balls.iter().enumerate() {
-        let path = vec![Key("balls"), Index(i)];
-        let (p, v, mass, diameter) = check_ball(&path, b.position, b.velocity, b.mass, b.diameter)?;
-        let id = BallId(balls.len() as u32);
-        balls.push(Ball { id, kind: BallKind::Ball, position: p, velocity: v, mass, diameter });
-        paths.push(path);
-    }
-
-    let mut total: i64 = balls.len() as i64;
-    for (i, g) in file.generate.iter().enumerate() {
-        let p = vec![Key("generate"), Index(i)];
-        if g.count < 0 {
-            return Err(c.invalid(with(&p, Key("count")), g.count, "must be zero or more"));
-        }
-        total = total.saturating_add(g.count);
-        if total > max_balls as i64 {
-            return Err(c.invalid(
-                with(&p, Key("count")),
-                g.count,
-                format!("brings the scene to {total} balls, more than simulation.max-balls = {max_balls}"),
-            ));
-        }
-    }
-
-    let largest = balls
-        .iter()
-        .map(|b| b.diameter)
-        .chain(file.generate.iter().map(|g| if g.diameter.is_finite() { g.diameter } else { 0.0 }))
-        .fold(0.0f64, f64::max);
+    let field = c.field(&file.field)?;
+    let sim = c.simulation(&file.simulation)?;
+    let effects = c.effects(&file.effects)?;
+    let Listed { mut balls, paths, pull } = c.listed(file.key_ball.as_ref(), &file.balls, &field)?;
+    c.counts(&file.generate, balls.len(), sim.max_balls)?;
     let allow_overlap = file.simulation.allow_overlap;
-    let mut placed = Placed::new(largest);
-    for (k, b) in balls.iter().enumerate() {
-        if allow_overlap {
-            placed.insert(b.position, b.radius());
-            continue;
-        }
-        if let Some(other) = placed.overlapping(b.position, b.radius()) {
-            return Err(c.invalid(
-                with(&paths[k], Key("position")),
-                format!("[{}, {}]", b.position.x, b.position.y),
-                format!(
-                    "overlaps {} at [{}, {}]",
-                    KeyPath(paths[other].clone()),
-                    balls[other].position.x,
-                    balls[other].position.y
-                ),
-            ));
-        }
-        placed.insert(b.position, b.radius());
-    }
-
-    for (gi, g) in file.generate.iter().enumerate() {
-        let p = vec![Key("generate"), Index(gi)];
-        let diameter = c.positive(&with(&p, Key("diameter")), g.diameter)?;
-        let mass = c.positive(&with(&p, Key("mass")), g.mass)?;
-        let speed = c.non_negative(&with(&p, Key("speed")), g.speed)?;
-        let gap = if allow_overlap {
-            if !(g.gap.is_finite() && g.gap > -0.5) {
-                return Err(c.invalid(with(&p, Key("gap")), g.gap, "must be a finite number above -0.5"));
-            }
-            g.gap
-        } else {
-            c.non_negative(&with(&p, Key("gap")), g.gap)?
-        };
-        if diameter > width.min(height) {
-            return Err(c.invalid(
-                with(&p, Key("diameter")),
-                diameter,
-                format!("is larger than the field ({width} m × {height} m)"),
-            ));
-        }
-        let r = 0.5 * diameter;
-        let region = match g.region {
-            None => [0.0, 0.0, width, height],
-            Some(reg) => {
-                let ok = reg.iter().all(|v| v.is_finite())
-                    && reg[0] >= 0.0
-                    && reg[1] >= 0.0
-                    && reg[2] <= width
-                    && reg[3] <= height
-                    && reg[2] - reg[0] >= diameter
-                    && reg[3] - reg[1] >= diameter;
-                if !ok {
-                    return Err(c.invalid(
-                        with(&p, Key("region")),
-                        format!("[{}, {}, {}, {}]", reg[0], reg[1], reg[2], reg[3]),
-                        format!("must be [x0, y0, x1, y1] inside the field ({width} m × {height} m) and at least one diameter wide and high"),
-                    ));
-                }
-                reg
-            }
-        };
-        let mut rng = Uniform::new(file.simulation.seed, gi as u64 + 1);
-        let count = g.count as usize;
-        let add = |pos: DVec2, rng: &mut Uniform, balls: &mut Vec<Ball>| {
-            let angle = std::f64::consts::TAU * rng.next();
-            let velocity = speed * DVec2::new(angle.cos(), angle.sin());
-            let id = BallId(balls.len() as u32);
-            balls.push(Ball { id, kind: BallKind::Ball, position: pos, velocity, mass, diameter });
-        };
-        match g.layout.as_str() {
-            "random" => {
-                let (x0, y0) = (region[0] + r, region[1] + r);
-                let (sx, sy) = (region[2] - region[0] - diameter, region[3] - region[1] - diameter);
-                for n in 0..count {
-                    let mut done = false;
-                    for _ in 0..10_000 {
-                        let pos = DVec2::new(x0 + sx * rng.next(), y0 + sy * rng.next());
-                        if placed.overlapping(pos, r).is_none() {
-                            placed.insert(pos, r);
-                            add(pos, &mut rng, &mut balls);
-                            done = true;
-                            break;
-                        }
-                    }
-                    if !done {
-                        return Err(c.invalid(
-                            with(&p, Key("count")),
-                            g.count,
-                            format!("only {n} balls of diameter {diameter} m fit in the region without overlap (try layout = \"lattice\" or a larger region)"),
-                        ));
-                    }
-                }
-            }
-            "lattice" => {
-                // Hexagonal rows from the bottom-left corner of the region; odd rows shifted by
-                // half a spacing. Spots taken by other balls are skipped.
-                let spacing = diameter * (1.0 + gap);
-                let row_height = spacing * 3f64.sqrt() / 2.0;
-                // Spots are counted, not stepped through by adding floats (which stalls when the
-                // spacing is below the rounding of x); and the search is bounded.
-                let rows = ((region[3] - region[1] - diameter) / row_height).floor() as u64 + 1;
-                let cols = ((region[2] - region[0] - diameter) / spacing).floor() as u64 + 1;
-                let budget = (count as u64).saturating_mul(20).saturating_add(1_000_000);
-                let mut n = 0;
-                let mut tried = 0u64;
-                'rows: for row in 0..rows {
-                    let y = region[1] + r + row as f64 * row_height;
-                    let shift = if row % 2 == 1 { 0.5 * spacing } else { 0.0 };
-                    for col in 0..cols {
-                        if n == count || tried >= budget {
-                            break 'rows;
-                        }
-                        tried += 1;
-                        let x = region[0] + r + shift + col as f64 * spacing;
-                        if x + r > region[2] {
-                            continue;
-                        }
-                        let pos = DVec2::new(x, y);
-                        if allow_overlap || placed.overlapping(pos, r).is_none() {
-                            placed.insert(pos, r);
-                            add(pos, &mut rng, &mut balls);
-                            n += 1;
-                        }
-                    }
-                }
-                if n < count {
-                    return Err(c.invalid(
-                        with(&p, Key("count")),
-                        g.count,
-                        format!("only {n} balls of diameter {diameter} m fit in the region on a lattice"),
-                    ));
-                }
-            }
-            other => {
-                return Err(c.invalid(
-                    with(&p, Key("layout")),
-                    format!("\"{other}\""),
-                    "must be \"random\" or \"lattice\"",
-                ));
-            }
+    let mut placed = c.place_listed(&balls, &paths, &file.generate, allow_overlap)?;
+    for (i, spec) in file.generate.iter().enumerate() {
+        let path = vec![Key("generate"), Index(i)];
+        let batch = c.batch(&path, spec, &field, allow_overlap)?;
+        // One random stream per entry, so that adding an entry leaves the others' balls alone.
+        let mut rng = Uniform::new(file.simulation.seed, i as u64 + 1);
+        match spec.layout {
+            Layout::Random => c.place_random(&path, &batch, &mut rng, &mut placed, &mut balls)?,
+            Layout::Lattice => c.place_lattice(&path, &batch, allow_overlap, &mut rng, &mut placed, &mut balls)?,
         }
     }
-    if balls.len() > max_balls {
+    if balls.len() > sim.max_balls {
+        let max_balls = sim.max_balls;
         return Err(c.invalid(
             vec![Key("balls")],
             balls.len(),
@@ -807,13 +648,390 @@ fn build(file: SceneFile, c: &Checker<'_>) -> Result<Scene, SceneError> {
         name: file.name,
         description: file.description,
         field,
-        integrator,
-        dt,
+        integrator: sim.integrator,
+        dt: sim.dt,
         seed: file.simulation.seed,
-        max_balls,
-        ball_cycle,
+        max_balls: sim.max_balls,
+        ball_cycle: sim.ball_cycle,
         effects,
         pull,
         balls,
     })
+}
+
+impl Checker<'_> {
+    fn field(&self, spec: &FieldSpec) -> Result<Field, SceneError> {
+        let path = [Key("field")];
+        let width = self.positive(&with(&path, Key("width")), spec.width)?;
+        let height = self.positive(&with(&path, Key("height")), spec.height)?;
+        let restitution = self.unit_interval(&with(&path, Key("restitution")), spec.restitution)?;
+        Ok(Field { width, height, restitution })
+    }
+
+    fn simulation(&self, spec: &SimulationSpec) -> Result<Simulation, SceneError> {
+        let path = [Key("simulation")];
+        let integrator: Integrator = spec.integrator.parse().map_err(|e: crate::physics::UnknownIntegrator| {
+            self.invalid(with(&path, Key("integrator")), format!("\"{}\"", e.0), e.to_string())
+        })?;
+        let dt = self.positive(&with(&path, Key("dt")), spec.dt)?;
+        if dt > 1.0 {
+            return Err(self.invalid(with(&path, Key("dt")), dt, "must be at most 1 s"));
+        }
+        let max_balls = spec.max_balls;
+        if max_balls < 1 || max_balls as u64 > HARD_MAX_BALLS as u64 {
+            return Err(self.invalid(
+                with(&path, Key("max-balls")),
+                max_balls,
+                format!("must be between 1 and {HARD_MAX_BALLS}"),
+            ));
+        }
+        let ball_cycle = self.positive(&with(&path, Key("ball-cycle")), spec.ball_cycle)?;
+        if ball_cycle > 0.1 {
+            return Err(self.invalid(with(&path, Key("ball-cycle")), ball_cycle, "must be at most 0.1 s"));
+        }
+        Ok(Simulation { integrator, dt, max_balls: max_balls as usize, ball_cycle })
+    }
+
+    fn effects(&self, spec: &EffectsSpec) -> Result<Effects, SceneError> {
+        let path = [Key("effects")];
+        let mut effects = Effects::default();
+        if let Some(col) = &spec.collisions {
+            let p = with(&with(&path, Key("collisions")), Key("restitution"));
+            effects.collisions = Some(Collisions { restitution: self.unit_interval(&p, col.restitution)? });
+        }
+        if let Some(g) = &spec.gravity {
+            let p = with(&with(&path, Key("gravity")), Key("g"));
+            effects.gravity = Some(Gravity { g: self.vector(&p, g.g)? });
+        }
+        if let Some(d) = &spec.drag {
+            effects.drag = Some(self.drag(&with(&path, Key("drag")), d)?);
+        }
+        if let Some(a) = &spec.attraction {
+            effects.attraction = Some(self.attraction(&with(&path, Key("attraction")), a)?);
+        }
+        Ok(effects)
+    }
+
+    fn drag(&self, path: &[Seg], spec: &DragSpec) -> Result<Drag, SceneError> {
+        // The keys of the model not chosen, and the words that say so.
+        let (foreign, problem) = match spec.model {
+            DragModel::Quadratic => (vec![("mu", spec.mu)], "belongs to model = \"linear\", not \"quadratic\""),
+            DragModel::Linear => {
+                (vec![("rho", spec.rho), ("cd", spec.cd)], "belongs to model = \"quadratic\", not \"linear\"")
+            }
+        };
+        if let Some((key, Some(v))) = foreign.into_iter().find(|(_, v)| v.is_some()) {
+            return Err(self.invalid(with(path, Key(key)), v, problem));
+        }
+        Ok(match spec.model {
+            DragModel::Quadratic => Drag::Quadratic {
+                rho: self.positive(&with(path, Key("rho")), spec.rho.unwrap_or(AIR_DENSITY))?,
+                cd: self.positive(&with(path, Key("cd")), spec.cd.unwrap_or(SPHERE_DRAG_COEFFICIENT))?,
+            },
+            DragModel::Linear => {
+                Drag::Linear { mu: self.positive(&with(path, Key("mu")), spec.mu.unwrap_or(AIR_VISCOSITY))? }
+            }
+        })
+    }
+
+    fn attraction(&self, path: &[Seg], spec: &AttractionSpec) -> Result<Attraction, SceneError> {
+        let g_constant = self.non_negative(&with(path, Key("g-constant")), spec.g_constant)?;
+        let opening_angle = spec.opening_angle;
+        if !(0.0..=MAX_OPENING_ANGLE).contains(&opening_angle) {
+            return Err(self.invalid(
+                with(path, Key("opening-angle")),
+                opening_angle,
+                format!("must be between 0 (the direct sum always) and {MAX_OPENING_ANGLE}"),
+            ));
+        }
+        Ok(Attraction { g_constant, opening_angle })
+    }
+
+    /// Refuses a ball too large for the field.
+    fn fits(&self, path: &[Seg], diameter: f64, field: &Field) -> Result<(), SceneError> {
+        let (width, height) = (field.width, field.height);
+        if diameter > width.min(height) {
+            return Err(self.invalid(
+                with(path, Key("diameter")),
+                diameter,
+                format!("is larger than the field ({width} m × {height} m)"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks one listed ball: `(position, velocity, mass, diameter)`.
+    fn ball(
+        &self,
+        path: &[Seg],
+        [position, velocity]: [[f64; 2]; 2],
+        mass: f64,
+        diameter: f64,
+        field: &Field,
+    ) -> Result<(DVec2, DVec2, f64, f64), SceneError> {
+        let mass = self.positive(&with(path, Key("mass")), mass)?;
+        let diameter = self.positive(&with(path, Key("diameter")), diameter)?;
+        self.fits(path, diameter, field)?;
+        let p = self.vector(&with(path, Key("position")), position)?;
+        let v = self.vector(&with(path, Key("velocity")), velocity)?;
+        if !field.contains(p.x, p.y, 0.5 * diameter, 0.0) {
+            let (width, height) = (field.width, field.height);
+            return Err(self.invalid(
+                with(path, Key("position")),
+                format!("[{}, {}]", p.x, p.y),
+                format!("puts a ball of diameter {diameter} m outside the field ({width} m × {height} m)"),
+            ));
+        }
+        Ok((p, v, mass, diameter))
+    }
+
+    /// The key ball and the `[[balls]]`, each checked alone (overlaps come later).
+    fn listed(&self, key_ball: Option<&KeyBallSpec>, specs: &[BallSpec], field: &Field) -> Result<Listed, SceneError> {
+        let mut listed = Listed { balls: Vec::new(), paths: Vec::new(), pull: 0.0 };
+        if let Some(k) = key_ball {
+            let path = vec![Key("key-ball")];
+            let (position, velocity, mass, diameter) =
+                self.ball(&path, [k.position, k.velocity], k.mass, k.diameter, field)?;
+            listed.pull = self.non_negative(&with(&path, Key("pull")), k.pull)?;
+            listed.balls.push(Ball { id: BallId(0), kind: BallKind::Key, position, velocity, mass, diameter });
+            listed.paths.push(path);
+        }
+        for (i, b) in specs.iter().enumerate() {
+            let path = vec![Key("balls"), Index(i)];
+            let (position, velocity, mass, diameter) =
+                self.ball(&path, [b.position, b.velocity], b.mass, b.diameter, field)?;
+            let id = BallId(listed.balls.len() as u32);
+            listed.balls.push(Ball { id, kind: BallKind::Ball, position, velocity, mass, diameter });
+            listed.paths.push(path);
+        }
+        Ok(listed)
+    }
+
+    /// Refuses a negative count, and counts that bring the scene past `max_balls`, before
+    /// anything is generated.
+    fn counts(&self, specs: &[GenerateSpec], listed: usize, max_balls: usize) -> Result<(), SceneError> {
+        let mut total = listed as i64;
+        for (i, g) in specs.iter().enumerate() {
+            let p = vec![Key("generate"), Index(i)];
+            if g.count < 0 {
+                return Err(self.invalid(with(&p, Key("count")), g.count, "must be zero or more"));
+            }
+            total = total.saturating_add(g.count);
+            if total > max_balls as i64 {
+                return Err(self.invalid(
+                    with(&p, Key("count")),
+                    g.count,
+                    format!("brings the scene to {total} balls, more than simulation.max-balls = {max_balls}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses listed balls that overlap (unless `allow_overlap`), and returns them placed, for
+    /// the generated balls to keep clear of.
+    fn place_listed(
+        &self,
+        balls: &[Ball],
+        paths: &[Vec<Seg>],
+        generate: &[GenerateSpec],
+        allow_overlap: bool,
+    ) -> Result<Placed, SceneError> {
+        // Cells as large as the largest ball, generated ones included (a bad diameter is
+        // refused later; here it must only not spoil the cell size).
+        let largest = balls
+            .iter()
+            .map(|b| b.diameter)
+            .chain(generate.iter().map(|g| if g.diameter.is_finite() { g.diameter } else { 0.0 }))
+            .fold(0.0f64, f64::max);
+        let mut placed = Placed::new(largest);
+        for (k, b) in balls.iter().enumerate() {
+            if !allow_overlap && let Some(other) = placed.overlapping(b.position, b.radius()) {
+                return Err(self.invalid(
+                    with(&paths[k], Key("position")),
+                    format!("[{}, {}]", b.position.x, b.position.y),
+                    format!(
+                        "overlaps {} at [{}, {}]",
+                        KeyPath(paths[other].clone()),
+                        balls[other].position.x,
+                        balls[other].position.y
+                    ),
+                ));
+            }
+            placed.insert(b.position, b.radius());
+        }
+        Ok(placed)
+    }
+
+    /// Checks a `[[generate]]` entry's numbers and region (its count is checked by
+    /// [`Checker::counts`]).
+    fn batch(&self, p: &[Seg], g: &GenerateSpec, field: &Field, allow_overlap: bool) -> Result<Batch, SceneError> {
+        let diameter = self.positive(&with(p, Key("diameter")), g.diameter)?;
+        let mass = self.positive(&with(p, Key("mass")), g.mass)?;
+        let speed = self.non_negative(&with(p, Key("speed")), g.speed)?;
+        let gap = if allow_overlap {
+            if !(g.gap.is_finite() && g.gap > -0.5) {
+                return Err(self.invalid(with(p, Key("gap")), g.gap, "must be a finite number above -0.5"));
+            }
+            g.gap
+        } else {
+            self.non_negative(&with(p, Key("gap")), g.gap)?
+        };
+        self.fits(p, diameter, field)?;
+        let (width, height) = (field.width, field.height);
+        let region = match g.region {
+            None => [0.0, 0.0, width, height],
+            Some(reg) => {
+                let ok = reg.iter().all(|v| v.is_finite())
+                    && reg[0] >= 0.0
+                    && reg[1] >= 0.0
+                    && reg[2] <= width
+                    && reg[3] <= height
+                    && reg[2] - reg[0] >= diameter
+                    && reg[3] - reg[1] >= diameter;
+                if !ok {
+                    return Err(self.invalid(
+                        with(p, Key("region")),
+                        format!("[{}, {}, {}, {}]", reg[0], reg[1], reg[2], reg[3]),
+                        format!("must be [x0, y0, x1, y1] inside the field ({width} m × {height} m) and at least one diameter wide and high"),
+                    ));
+                }
+                reg
+            }
+        };
+        Ok(Batch { count: g.count as usize, diameter, mass, speed, gap, region })
+    }
+
+    /// Places a batch uniformly at random in its region, each ball clear of every placed one.
+    fn place_random(
+        &self,
+        p: &[Seg],
+        batch: &Batch,
+        rng: &mut Uniform,
+        placed: &mut Placed,
+        balls: &mut Vec<Ball>,
+    ) -> Result<(), SceneError> {
+        let (region, diameter) = (batch.region, batch.diameter);
+        let r = 0.5 * diameter;
+        let (x0, y0) = (region[0] + r, region[1] + r);
+        let (sx, sy) = (region[2] - region[0] - diameter, region[3] - region[1] - diameter);
+        for n in 0..batch.count {
+            // A bounded number of tries: a region too full to take the ball is an error, not a hang.
+            let spot = (0..10_000).find_map(|_| {
+                let pos = DVec2::new(x0 + sx * rng.next(), y0 + sy * rng.next());
+                placed.overlapping(pos, r).is_none().then_some(pos)
+            });
+            let Some(pos) = spot else {
+                return Err(self.invalid(
+                    with(p, Key("count")),
+                    batch.count,
+                    format!("only {n} balls of diameter {diameter} m fit in the region without overlap (try layout = \"lattice\" or a larger region)"),
+                ));
+            };
+            placed.insert(pos, r);
+            balls.push(batch.ball(pos, rng, balls.len()));
+        }
+        Ok(())
+    }
+
+    /// Places a batch on hexagonal rows from the bottom-left corner of its region, odd rows
+    /// shifted by half a spacing; spots taken by other balls are skipped (unless `allow_overlap`).
+    fn place_lattice(
+        &self,
+        p: &[Seg],
+        batch: &Batch,
+        allow_overlap: bool,
+        rng: &mut Uniform,
+        placed: &mut Placed,
+        balls: &mut Vec<Ball>,
+    ) -> Result<(), SceneError> {
+        let (region, diameter, count) = (batch.region, batch.diameter, batch.count);
+        let r = 0.5 * diameter;
+        let spacing = diameter * (1.0 + batch.gap);
+        let row_height = spacing * 3f64.sqrt() / 2.0;
+        // Spots are counted, not stepped through by adding floats (which stalls when the
+        // spacing is below the rounding of x); and the search is bounded.
+        let rows = ((region[3] - region[1] - diameter) / row_height).floor() as u64 + 1;
+        let cols = ((region[2] - region[0] - diameter) / spacing).floor() as u64 + 1;
+        let budget = (count as u64).saturating_mul(20).saturating_add(1_000_000);
+        let mut n = 0;
+        let mut tried = 0u64;
+        'rows: for row in 0..rows {
+            let y = region[1] + r + row as f64 * row_height;
+            let shift = if row % 2 == 1 { 0.5 * spacing } else { 0.0 };
+            for col in 0..cols {
+                if n == count || tried >= budget {
+                    break 'rows;
+                }
+                tried += 1;
+                let x = region[0] + r + shift + col as f64 * spacing;
+                if x + r > region[2] {
+                    continue;
+                }
+                let pos = DVec2::new(x, y);
+                if allow_overlap || placed.overlapping(pos, r).is_none() {
+                    placed.insert(pos, r);
+                    balls.push(batch.ball(pos, rng, balls.len()));
+                    n += 1;
+                }
+            }
+        }
+        if n < count {
+            return Err(self.invalid(
+                with(p, Key("count")),
+                count,
+                format!("only {n} balls of diameter {diameter} m fit in the region on a lattice"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(text: &str) -> Result<Scene, SceneError> {
+        Scene::from_toml_str(&format!("name = \"t\"\n{text}"), &Origin("t.toml".into()))
+    }
+
+    /// The physics type's serde form is the scene file's: a drag written out reads back the same.
+    /// (Fails with `Drag`'s serde attributes removed: it then writes `[drag.Quadratic]`.)
+    #[test]
+    fn drag_writes_as_a_scene_file_reads_it() {
+        #[derive(serde::Serialize)]
+        struct File {
+            effects: Fx,
+        }
+        #[derive(serde::Serialize)]
+        struct Fx {
+            drag: Drag,
+        }
+        for drag in [Drag::Quadratic { rho: 1.2, cd: 0.4 }, Drag::Linear { mu: 2e-5 }] {
+            let text = toml::to_string(&File { effects: Fx { drag } }).expect("a drag serialises");
+            let read = scene(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+            assert_eq!(read.effects.drag, Some(drag), "{text}");
+            let table: toml::Table = toml::from_str(&text).unwrap();
+            assert_eq!(table["effects"]["drag"].clone().try_into::<Drag>(), Ok(drag), "{text}");
+        }
+    }
+
+    #[test]
+    fn drag_model_and_keys_default_to_air() {
+        assert_eq!(scene("[effects]\ndrag = {}\n").unwrap().effects.drag, Some(Drag::default()));
+        let linear = scene("[effects]\ndrag = { model = \"linear\" }\n").unwrap();
+        assert_eq!(linear.effects.drag, Some(Drag::Linear { mu: AIR_VISCOSITY }));
+    }
+
+    #[test]
+    fn unknown_variant_reads_serdes_message() {
+        let say = |m: &str| unknown_variant(m).map(|(v, p)| format!("{v}: {p}"));
+        assert_eq!(say("unknown variant `x`, expected `a`").as_deref(), Some("\"x\": must be \"a\""));
+        assert_eq!(say("unknown variant `x`, expected `a` or `b`").as_deref(), Some("\"x\": must be \"a\" or \"b\""));
+        assert_eq!(
+            say("unknown variant `x`, expected one of `a`, `b`, `c`").as_deref(),
+            Some("\"x\": must be one of \"a\", \"b\", \"c\"")
+        );
+        assert_eq!(say("unknown field `x`, expected `a`"), None);
+    }
 }

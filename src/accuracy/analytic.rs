@@ -50,15 +50,19 @@ fn solve_monotone(centre: f64, half_width: f64, f: impl Fn(f64) -> (f64, f64)) -
 /// circular orbit too (where the direction of periapsis is undefined).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwoBody {
+    /// The gravitational constant G of the scene, m³/(kg·s²).
     pub g_constant: f64,
+    /// The two masses, kg, in the scene's order.
     pub masses: [f64; 2],
     /// `G·(m₁ + m₂)`, m³/s².
     pub mu: f64,
-    /// Centre of mass and its velocity at t = 0.
+    /// Centre of mass at t = 0, m.
     pub centre: DVec2,
+    /// Velocity of the centre of mass, m/s: constant, as no outside force acts.
     pub centre_velocity: DVec2,
-    /// Relative position `x₂ − x₁` and velocity at t = 0.
+    /// Relative position `x₂ − x₁` at t = 0, m.
     pub r0: DVec2,
+    /// Relative velocity `v₂ − v₁` at t = 0, m/s.
     pub v0: DVec2,
     /// Semi-major axis, m.
     pub a: f64,
@@ -145,12 +149,15 @@ impl TwoBody {
 /// A ball released from rest under gravity g (magnitude) and quadratic drag.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DragFall {
+    /// Magnitude of the gravitational acceleration, m/s² (positive, pointing down).
     pub g: f64,
     /// Terminal speed `sqrt(2·m·g/(ρ·C_d·A))`, m/s.
     pub terminal_speed: f64,
 }
 
 impl DragFall {
+    /// The fall of a ball of `mass` (kg) and `diameter` (m) under gravity `g` (m/s², magnitude)
+    /// in air of density `rho` (kg/m³) with drag coefficient `cd`.
     pub fn new(mass: f64, diameter: f64, g: f64, rho: f64, cd: f64) -> Self {
         DragFall { g, terminal_speed: quadratic_terminal_speed(mass, diameter, g, rho, cd) }
     }
@@ -184,6 +191,7 @@ pub fn projectile(x0: DVec2, v0: DVec2, g: DVec2, t: f64) -> DVec2 {
 /// each ball flies on its parabola.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Collision {
+    /// The uniform acceleration both balls share, m/s² (zero without gravity).
     pub g: DVec2,
     /// Time of contact, s.
     pub contact_time: f64,

@@ -23,7 +23,9 @@ pub struct OrderFit {
     pub order: f64,
     /// Points used, and the range of dt they span.
     pub points: usize,
+    /// The finest step of the points used, s.
     pub dt_min: f64,
+    /// The coarsest step of the points used, s.
     pub dt_max: f64,
 }
 

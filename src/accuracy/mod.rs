@@ -23,21 +23,39 @@ use crate::lockstep::Lockstep;
 use crate::physics::{Ball, Integrator};
 use crate::scene::SceneError;
 
+/// Why the accuracy report could not be made or written.
 #[derive(Debug, thiserror::Error)]
 pub enum AccuracyError {
+    /// A reference scene does not parse.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// A reference problem cannot be measured: its scene does not fit the exact answer (wrong
+    /// effects, balls that never meet, an unbound orbit), a run did not collide as expected, or
+    /// a threaded run failed.
     #[error("{0}")]
     Problem(String),
+    /// An output file or directory could not be written.
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// What the file system said.
+        source: std::io::Error,
+    },
+    /// The plot could not be drawn.
     #[error("{path}: cannot draw the plot: {message}")]
-    Plot { path: PathBuf, message: String },
+    Plot {
+        /// The plot's file.
+        path: PathBuf,
+        /// What the plotting library said.
+        message: String,
+    },
 }
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Config {
+    /// The integrators to compare, in the order of the table's columns.
     pub integrators: Vec<Integrator>,
     /// Steps per orbit for the Kepler problems.
     pub kepler_steps_per_orbit: Vec<u64>,
@@ -94,12 +112,19 @@ impl Config {
 /// One run's result for one measure.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
+    /// The problem's name (see [`PROBLEMS`]).
     pub problem: &'static str,
+    /// Which of the problem's errors this row gives.
     pub measure: Measure,
+    /// The integrator of the run.
     pub integrator: Integrator,
+    /// The run's time step, s.
     pub dt: f64,
+    /// Steps the run took.
     pub steps: u64,
+    /// Balls in the scene.
     pub balls: usize,
+    /// The error against the exact answer (relative, see [`Measure::meaning`]).
     pub error: f64,
     /// Estimated rounding part of the error: the same measure of the difference between this run
     /// and the same problem translated by [`TWIN_SHIFT`].
@@ -109,6 +134,8 @@ pub struct Row {
 }
 
 impl Row {
+    /// Wall time per ball and step, s: the cost axis of the plot, comparable across problems
+    /// with different numbers of balls.
     pub fn seconds_per_ball_step(&self) -> f64 {
         self.wall_seconds / (self.steps as f64 * self.balls as f64)
     }
@@ -117,12 +144,17 @@ impl Row {
 /// A measured order of convergence beside the theory.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fit {
+    /// The problem's name (see [`PROBLEMS`]).
     pub problem: &'static str,
+    /// The measure whose errors were fitted.
     pub measure: Measure,
+    /// The integrator whose sweep was fitted.
     pub integrator: Integrator,
     /// The order theory predicts, or `None` when the method is exact for the problem (a
     /// second- or higher-order method under a constant force).
     pub theory: Option<Theory>,
+    /// The order measured from the sweep, or `None` when fewer than three points were in the
+    /// asymptotic range (see [`fit_order`]).
     pub fit: Option<OrderFit>,
 }
 
@@ -142,11 +174,14 @@ impl Fit {
 /// two terms of different orders whose balance depends on the length of the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Theory {
+    /// The lowest order expected.
     pub low: u32,
+    /// The highest order expected (`low` when theory gives one order).
     pub high: u32,
 }
 
 impl Theory {
+    /// Exactly order `p`.
     pub const fn order(p: u32) -> Self {
         Theory { low: p, high: p }
     }
@@ -215,8 +250,12 @@ pub fn theoretical_order(exact: &Exact, measure: Measure, integrator: Integrator
 /// The whole report.
 #[derive(Clone, Debug)]
 pub struct Report {
+    /// The sweep that was run.
     pub config: Config,
+    /// Every run and measure, in the order they ran: by problem, integrator, step (coarsest
+    /// first) and measure.
     pub rows: Vec<Row>,
+    /// One fitted order per problem, measure and integrator.
     pub fits: Vec<Fit>,
     /// Wall time of the whole report, s.
     pub total_seconds: f64,
@@ -344,6 +383,7 @@ impl Report {
             .collect()
     }
 
+    /// The fitted order of one problem's measure for one integrator, if it was run.
     pub fn fit(&self, problem: &str, measure: &str, integrator: Integrator) -> Option<&Fit> {
         self.fits.iter().find(|f| f.problem == problem && f.measure.name == measure && f.integrator == integrator)
     }

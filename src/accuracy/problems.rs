@@ -28,6 +28,7 @@ pub enum Kind {
 pub struct Problem {
     /// Short name, e.g. `kepler-e05`; the scene is `reference/<name>`.
     pub name: &'static str,
+    /// What kind of exact answer it has, which decides its measures and its sweep.
     pub kind: Kind,
 }
 
@@ -50,6 +51,7 @@ const PROJECTILE_DURATION: f64 = 1.5;
 /// One error measure of a problem (a problem may have several, from the same run).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Measure {
+    /// Short name in the table and the CSV (`energy`, `position`, `fall`).
     pub name: &'static str,
     /// What the number means, for the table's legend.
     pub meaning: &'static str,
@@ -72,10 +74,12 @@ pub const AFTER_CONTACT: Measure = Measure {
 };
 
 impl Problem {
+    /// The built-in scene's name, `reference/<name>`.
     pub fn scene_name(&self) -> String {
         format!("reference/{}", self.name)
     }
 
+    /// The problem's built-in scene, parsed.
     pub fn scene(&self) -> Result<Scene, AccuracyError> {
         let name = self.scene_name();
         match scenes::builtin(&name) {
@@ -84,6 +88,8 @@ impl Problem {
         }
     }
 
+    /// The error measures a run of this problem is judged by, in the order
+    /// [`Exact::errors`] returns them.
     pub fn measures(&self) -> &'static [Measure] {
         match self.kind {
             Kind::Kepler => &[ENERGY, ORBIT],
@@ -156,16 +162,25 @@ impl Problem {
 /// The exact answer of a problem.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Exact {
+    /// The pair's Keplerian orbit.
     Kepler(TwoBody),
+    /// Each ball's fall, in the scene's order.
     DragFall(Vec<DragFall>),
-    Projectile { g: DVec2 },
+    /// Every ball flies on its parabola from its own start.
+    Projectile {
+        /// The uniform acceleration, m/s² (zero without gravity).
+        g: DVec2,
+    },
+    /// The pair's one bounce.
     Collision(Collision),
 }
 
 /// One point of a sweep: the step and the number of steps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SweepPoint {
+    /// Time step, s.
     pub dt: f64,
+    /// Steps of `dt` in the run.
     pub steps: u64,
 }
 
@@ -308,7 +323,10 @@ pub const TWIN_SHIFT: DVec2 = DVec2::new(0.012_345_678_9, -0.009_876_543_21);
 /// floating-point rounding.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Measured {
+    /// The measure's error against the exact answer (relative, see [`Measure::meaning`]).
     pub error: f64,
+    /// The same measure of the difference between the run and its translated twin: the
+    /// rounding part of `error`.
     pub rounding: f64,
 }
 

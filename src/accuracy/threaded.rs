@@ -21,11 +21,15 @@ use crate::physics::{Ball, BallId, BallKind, Bodies};
 /// One threaded run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ThreadedRow {
+    /// The period each ball aims for between its updates (the scene's `ball_cycle`).
     pub ball_cycle: Duration,
+    /// Balls on the field: the Kepler pair and the specks that load the machine.
     pub balls: usize,
+    /// How long the balls ran, s, on the engine's clock: wall time since the start.
     pub wall_seconds: f64,
     /// Cycles per second of the median and of the slowest ball.
     pub rate_median: f64,
+    /// Cycles per second of the slowest ball.
     pub rate_min: f64,
     /// CPU time of the process over wall time: cores kept busy.
     pub cores_used: f64,

@@ -1,5 +1,8 @@
 //! The control panel (egui): readouts, a live energy plot, sliders and toggles. It only returns
 //! [`Command`]s; the app carries them out.
+//!
+//! [`run_ui`] lays out a frame of the window's UI and [`PanelPainter`] draws it over the field:
+//! the window uses both, and so does the golden test of the panel, offscreen.
 
 use std::collections::VecDeque;
 
@@ -39,6 +42,119 @@ pub const MOUSE_HELP: &[(&str, &str)] = &[
     ("mouse: drag a ball", "grab it and throw it"),
     ("mouse: click elsewhere", "drop a new ball there (right button: anywhere)"),
 ];
+
+/// Width of the panel, points.
+pub const PANEL_WIDTH: f32 = 300.0;
+
+/// One frame of the window's UI, laid out by [`run_ui`].
+pub struct PanelFrame {
+    /// What egui made of the frame: the shapes to paint, texture changes, platform output.
+    pub output: egui::FullOutput,
+    /// What the user asked for through the panel this frame.
+    pub commands: Vec<Command>,
+    /// How wide the panel came out (0 when it is hidden), points.
+    pub width_points: f32,
+}
+
+/// Lays out one frame of the window's UI: the panel on the right (or, when it is hidden, a hint in
+/// the corner), and the help window over the field while `show_help` (which its close button
+/// clears).
+pub fn run_ui(
+    ctx: &egui::Context,
+    raw: egui::RawInput,
+    readouts: &Readouts,
+    settings: &Settings,
+    show_panel: bool,
+    show_help: &mut bool,
+) -> PanelFrame {
+    let mut commands = Vec::new();
+    let mut width_points = 0.0;
+    let output = ctx.run_ui(raw, |ui| {
+        if show_panel {
+            // No background of egui's own: the renderer's letterbox already paints the panel's
+            // area, opaque and cheaply, while egui's textured shader filling 300×680 pixels cost
+            // ~12 ms a frame on a CPU adapter.
+            let frame = egui::Frame::NONE.inner_margin(egui::Margin::symmetric(10, 8));
+            let panel = egui::Panel::right("panel").resizable(false).exact_size(PANEL_WIDTH).frame(frame);
+            let r = panel.show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| show(ui, readouts, settings, &mut commands));
+            });
+            width_points = r.response.rect.width();
+        } else {
+            egui::Area::new(egui::Id::unique("hint")).fixed_pos(egui::pos2(14.0, 12.0)).show(ui.ctx(), |ui| {
+                ui.label(egui::RichText::new("Tab: panel · H: help").color(egui::Color32::GRAY));
+            });
+        }
+        if *show_help {
+            help(ui.ctx(), show_help);
+        }
+    });
+    PanelFrame { output, commands, width_points }
+}
+
+/// Draws egui's shapes over a target the field is already drawn into.
+pub struct PanelPainter {
+    renderer: egui_wgpu::Renderer,
+}
+
+impl PanelPainter {
+    /// For targets of `format`. No dithering: the same UI gives the same pixels every frame.
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> PanelPainter {
+        let options = egui_wgpu::RendererOptions { dithering: false, ..Default::default() };
+        PanelPainter { renderer: egui_wgpu::Renderer::new(device, format, options) }
+    }
+
+    /// Uploads the textures egui changed, tessellates `shapes` and records their drawing over
+    /// `target` (kept, not cleared), a `size` pixels target, on `encoder`. Returns the command
+    /// buffers to submit before `encoder`'s. Call [`Self::free`] once they are submitted.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &mut self,
+        ctx: &egui::Context,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        size: [u32; 2],
+        shapes: Vec<egui::epaint::ClippedShape>,
+        textures: &egui::TexturesDelta,
+        pixels_per_point: f32,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let jobs = ctx.tessellate(shapes, pixels_per_point);
+        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point };
+        for (id, deltas) in &textures.set {
+            for delta in deltas {
+                self.renderer.update_texture(device, queue, *id, delta);
+            }
+        }
+        let extra = self.renderer.update_buffers(device, queue, encoder, &jobs, &screen);
+        let mut pass = encoder
+            .begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("egui"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            })
+            .forget_lifetime();
+        self.renderer.render(&mut pass, &jobs, &screen);
+        extra
+    }
+
+    /// Frees the textures egui let go of this frame: after the frame is submitted, as freeing
+    /// destroys them.
+    pub fn free(&mut self, textures: &egui::TexturesDelta) {
+        for id in &textures.free {
+            self.renderer.free_texture(id);
+        }
+    }
+}
 
 /// One sample of the energy plot.
 #[derive(Clone, Copy, Debug, Default)]

@@ -82,6 +82,9 @@ impl Engine for LockstepEngine {
     }
 
     fn advance_to(&mut self, t: f64) {
+        if self.paused {
+            return;
+        }
         // The first whole step at or after `t`, counted in steps (not from the summed clock,
         // whose rounding grows with the run), with a hair of tolerance for `t`'s own rounding.
         let target = (t / self.engine.dt() - 1e-9).ceil().max(0.0) as u64;
@@ -89,7 +92,9 @@ impl Engine for LockstepEngine {
     }
 
     fn advance_steps(&mut self, n: u64) {
-        self.run(n);
+        if !self.paused {
+            self.run(n);
+        }
     }
 
     fn tick(&mut self, wall: Duration) {

@@ -50,6 +50,7 @@ impl EngineKind {
     /// Every engine, in the order the window's E key cycles through them.
     pub const ALL: [EngineKind; 2] = [EngineKind::Threaded, EngineKind::Lockstep];
 
+    /// The name on the command line (`--engine threaded|lockstep`), in reports and on the panel.
     pub fn name(self) -> &'static str {
         match self {
             EngineKind::Threaded => "threaded",
@@ -73,20 +74,32 @@ impl std::fmt::Display for EngineKind {
 /// Why an engine refused a command (or could not start).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EngineError {
+    /// Adding a ball would pass the scene's `simulation.max-balls`.
     #[error("the field is full: {limit} balls is the limit (simulation.max-balls)")]
-    TooManyBalls { limit: usize },
+    TooManyBalls {
+        /// The scene's limit on the number of balls.
+        limit: usize,
+    },
+    /// No ball on the field has this id (it was never added, or has been removed).
     #[error("no ball with id {0}")]
     NoSuchBall(BallId),
+    /// [`Engine::put_back`] was given a ball whose id is already on the field.
     #[error("a ball with id {0} is already on the field")]
     IdInUse(BallId),
+    /// A ball with a non-finite value, a mass or diameter that is not positive, or a diameter
+    /// wider than the field; the text shows the ball (or the diameter) as given.
     #[error("invalid ball: {0}")]
     InvalidBall(String),
+    /// A mass (kg) that is not finite or not greater than zero.
     #[error("invalid mass {0} kg: it must be finite and greater than zero")]
     InvalidMass(f64),
+    /// A velocity (x, y in m/s) with a non-finite component.
     #[error("invalid velocity [{0}, {1}] m/s: it must be finite")]
     InvalidVelocity(f64, f64),
+    /// [`free_spot`] found no place for a ball of this diameter (m) in its 1,000 tries.
     #[error("no free spot on the field for a ball of diameter {0} m")]
     NoFreeSpot(f64),
+    /// The operating system refused to start a ball or monitor thread; the text is its error.
     #[error("could not start a thread: {0}")]
     Spawn(String),
 }
@@ -118,11 +131,13 @@ pub struct Shutdown {
     pub threads_joined: usize,
     /// Messages of ball threads that had panicked.
     pub panics: Vec<String>,
+    /// Wall-clock time the shutdown took, s (0 for an engine without threads).
     pub seconds: f64,
 }
 
 /// The one interface to an engine (see the module comment).
 pub trait Engine: Send {
+    /// Which engine this is (for the report and the panel; callers never branch on it).
     fn kind(&self) -> EngineKind;
 
     // ---- time ---------------------------------------------------------------------------
@@ -133,13 +148,16 @@ pub trait Engine: Send {
     /// or after `t`, to a hair of rounding). Returns at once if `t` has passed, or if the engine
     /// is paused (the threaded engine's clock then stands still).
     fn advance_to(&mut self, t: f64);
-    /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded).
+    /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded). Nothing
+    /// while paused.
     fn advance_steps(&mut self, n: u64);
     /// The window's tick, never blocking: `wall` is the wall-clock time since the last tick. The
     /// lockstep engine runs the steps that time (times the time scale) is worth; the threaded one
     /// ends a single step that is due.
     fn tick(&mut self, wall: Duration);
+    /// Pauses (the clock stands still, the balls keep their state) or resumes the motion.
     fn set_paused(&mut self, paused: bool);
+    /// Whether the engine is paused.
     fn is_paused(&self) -> bool;
     /// While paused: advances `span` of wall-clock time's worth of simulation (times the time
     /// scale), then stays paused.
@@ -147,6 +165,7 @@ pub trait Engine: Send {
     /// Simulated seconds per wall-clock second (slow motion below 1); applies to [`Engine::tick`]
     /// and to the threaded engine's clock.
     fn set_time_scale(&mut self, scale: f64);
+    /// Simulated seconds per wall-clock second now (see [`Engine::set_time_scale`]).
     fn time_scale(&self) -> f64;
     /// Stops the motion so the balls can be read at one instant (the end of a run): pauses and,
     /// for the threaded engine, waits until every ball has finished its cycle.
@@ -156,6 +175,7 @@ pub trait Engine: Send {
 
     /// The balls now, into `out` (cleared first), sorted by id.
     fn sample(&mut self, out: &mut Vec<Ball>);
+    /// Number of balls on the field now, the key ball included.
     fn ball_count(&self) -> usize;
     /// Adds a ball with a fresh id (its `id` is ignored), moved inside the field if it is not.
     fn add_ball(&mut self, ball: Ball) -> Result<BallId, EngineError>;
@@ -190,9 +210,15 @@ pub trait Engine: Send {
 
     // ---- parameters ---------------------------------------------------------------------
 
+    /// The field: its size (m) and the walls' restitution now.
     fn field(&self) -> Field;
+    /// The effects that act now (collisions, gravity, drag, attraction) and their parameters.
     fn effects(&self) -> Effects;
+    /// Replaces the effects (the window's G/D/N/C keys and the panel). The balls keep their
+    /// state; the new forces act from the next step (lockstep) or each ball's next cycle
+    /// (threaded).
     fn set_effects(&mut self, effects: Effects);
+    /// The integration method the balls are advanced with (the scene's `simulation.integrator`).
     fn integrator(&self) -> Integrator;
     /// Restitution of the walls and of ball–ball collisions (if on), each clamped to [0, 1].
     fn set_restitution(&mut self, walls: f64, balls: f64);
@@ -228,10 +254,13 @@ pub fn start(kind: EngineKind, scene: &Scene, threads: Option<usize>) -> Result<
 pub struct Placement(u64);
 
 impl Placement {
+    /// The sequence for `seed` (the scene's `simulation.seed`): the same seed gives the same
+    /// spots.
     pub fn new(seed: u64) -> Placement {
         Placement(seed ^ 0x9E37_79B9_7F4A_7C15)
     }
 
+    /// The next number, uniform in [0, 1) with 53 random bits.
     pub fn next_uniform(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
@@ -290,3 +319,18 @@ pub fn check_velocity(v: DVec2) -> Result<DVec2, EngineError> {
 pub fn clamp_restitution(e: f64, current: f64) -> f64 {
     if e.is_nan() { current } else { e.clamp(0.0, 1.0) }
 }
+
+/// Compile-time checks: an engine moves to whichever thread drives it (the window's event loop,
+/// a headless run, a test), so every engine and the boxed interface are `Send`; the threaded
+/// engine's runtime is also shared by reference across threads (its methods take `&self`), so it
+/// is `Sync` too. A field that broke either would fail to compile here, not in a caller.
+const _: () = {
+    const fn send<T: Send + ?Sized>() {}
+    const fn sync<T: Sync + ?Sized>() {}
+    send::<Box<dyn Engine>>();
+    send::<LockstepEngine>();
+    send::<ThreadedEngine>();
+    sync::<crate::runtime::Runtime>();
+    send::<EngineError>();
+    sync::<EngineError>();
+};

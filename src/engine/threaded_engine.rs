@@ -5,7 +5,10 @@ use std::time::{Duration, Instant};
 
 use glam::DVec2;
 
-use super::{Engine, EngineError, EngineFigures, EngineKind, Placement, Shutdown, admit, check_mass, check_velocity};
+use super::{
+    Engine, EngineError, EngineFigures, EngineKind, Placement, Shutdown, admit, check_mass, check_velocity,
+    clamp_restitution,
+};
 use crate::physics::{AttractionMethod, Ball, BallId, Diagnostics, Effects, Field, Integrator, WallImpulses, measure};
 use crate::runtime::{BallRecord, Runtime, RuntimeConfig};
 use crate::scene::Scene;
@@ -226,7 +229,10 @@ impl Engine for ThreadedEngine {
     }
 
     fn set_restitution(&mut self, walls: f64, balls: f64) {
-        self.runtime.set_restitution(walls, balls);
+        let params = self.runtime.params();
+        let balls_now = params.effects.collisions.map_or(1.0, |c| c.restitution);
+        self.runtime
+            .set_restitution(clamp_restitution(walls, params.field.restitution), clamp_restitution(balls, balls_now));
     }
 
     fn wall_impulses(&self) -> WallImpulses {

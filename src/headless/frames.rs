@@ -5,13 +5,14 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::physics::{Ball, Bodies, Field};
+use crate::physics::{Ball, Field};
 use crate::render::{FrameSnapshot, Layout, OffscreenRenderer, RenderError};
 use crate::scene::Scene;
 
 /// Where and how often to write frames.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameOptions {
+    /// The directory the PNGs go to (`--frames DIR`); created if it is missing.
     pub dir: PathBuf,
     /// Seconds between frames: simulated (lockstep) or wall-clock (threaded).
     pub every: f64,
@@ -22,23 +23,44 @@ pub struct FrameOptions {
 /// What was written.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FramesWritten {
+    /// Frames written, numbered from 0 (see [`frame_path`]).
     pub frames: usize,
+    /// Frame instants that passed while the previous frame was drawn (threaded engine), not
+    /// written.
     pub skipped: usize,
+    /// Width of each frame, px.
     pub width: u32,
+    /// Height of each frame, px.
     pub height: u32,
+    /// The GPU adapter that drew them, as `name (backend, device type)`: on a machine without a
+    /// GPU, a CPU driver such as llvmpipe.
     pub adapter: String,
     /// Mean seconds to draw a frame and read it back (PNG encoding excluded).
     pub render_seconds: f64,
 }
 
+/// Why frames could not be drawn or written.
 #[derive(Debug, thiserror::Error)]
 pub enum FramesError {
+    /// The offscreen renderer failed: no adapter, no device, or a failed readback.
     #[error("--frames: {0}")]
     Render(#[from] RenderError),
+    /// The frames' directory could not be created.
     #[error("--frames {dir}: cannot create the directory: {cause}")]
-    Dir { dir: PathBuf, cause: std::io::Error },
+    Dir {
+        /// The directory asked for.
+        dir: PathBuf,
+        /// What the file system said.
+        cause: std::io::Error,
+    },
+    /// A frame could not be encoded or saved as a PNG.
     #[error("--frames: cannot write {file}: {cause}")]
-    Write { file: PathBuf, cause: image::ImageError },
+    Write {
+        /// The frame's file.
+        file: PathBuf,
+        /// What the image encoder or the file system said.
+        cause: image::ImageError,
+    },
 }
 
 /// Draws frames offscreen and writes them as PNGs.
@@ -59,7 +81,7 @@ impl Recorder {
         let mut snapshot = FrameSnapshot::new(scene.field);
         // One frame and a readback before the run: the driver compiles its shaders on first use
         // (hundreds of ms on a CPU adapter), which must not fall into a timed, threaded run.
-        snapshot.fill_from_bodies(scene.field, &Bodies::from_balls(&scene.balls));
+        snapshot.fill(scene.field, &scene.balls);
         out.render_image(&snapshot)?;
         Ok(Recorder {
             out,
@@ -72,7 +94,7 @@ impl Recorder {
 
     /// Draws `balls` and writes them as the next frame.
     pub(super) fn write(&mut self, field: Field, balls: &[Ball]) -> Result<(), FramesError> {
-        self.snapshot.fill_from_bodies(field, &Bodies::from_balls(balls));
+        self.snapshot.fill(field, balls);
         let t = Instant::now();
         let image = self.out.render_image(&self.snapshot)?;
         self.render_time += t.elapsed();

@@ -38,17 +38,22 @@ pub enum RunLength {
     Steps(u64),
 }
 
+/// What `ballfield headless` was asked to do: the command line's options, parsed.
 #[derive(Clone, Debug)]
 pub struct HeadlessOptions {
     /// What the scene is called in the report (its file or built-in name).
     pub scene_file: String,
+    /// How long to run (`--duration` or `--steps`).
     pub length: RunLength,
     /// Overrides the scene's `simulation.dt`.
     pub dt: Option<f64>,
     /// Overrides the scene's integrator.
     pub integrator: Option<Integrator>,
+    /// The engine that advances the balls (`--engine`).
     pub engine: EngineKind,
+    /// A state CSV whose balls replace the scene's (`--state-in`).
     pub state_in: Option<PathBuf>,
+    /// Where to write the balls at the end, as a state CSV (`--state-out`).
     pub state_out: Option<PathBuf>,
     /// Threads for the lockstep engine (None: every core).
     pub threads: Option<usize>,
@@ -56,16 +61,29 @@ pub struct HeadlessOptions {
     pub frames: Option<FrameOptions>,
 }
 
+/// Why a headless run failed, or why it could not write its state file.
 #[derive(Debug, thiserror::Error)]
 pub enum HeadlessError {
+    /// The `--state-in` file could not be read or parsed.
     #[error("--state-in: {0}")]
     StateIn(StateFileError),
+    /// The `--state-out` file could not be written.
     #[error("--state-out: {0}")]
     StateOut(StateFileError),
+    /// The engine refused to start on the scene (a ball it rejects, a thread it could not spawn).
     #[error("cannot start the {0} engine: {1}")]
     Engine(EngineKind, EngineError),
+    /// The `--state-in` file holds more balls than the scene allows.
     #[error("--state-in {file}: {count} balls, more than simulation.max-balls = {limit} of the scene")]
-    TooManyBalls { file: PathBuf, count: usize, limit: usize },
+    TooManyBalls {
+        /// The `--state-in` file.
+        file: PathBuf,
+        /// Balls in the file.
+        count: usize,
+        /// The scene's `simulation.max-balls`.
+        limit: usize,
+    },
+    /// A frame could not be drawn or written.
     #[error(transparent)]
     Frames(#[from] FramesError),
 }
@@ -73,6 +91,7 @@ pub enum HeadlessError {
 /// What a run produced.
 #[derive(Debug)]
 pub struct Outcome {
+    /// The run's figures, for `--report`.
     pub report: RunReport,
     /// What was drawn, when frames were asked for.
     pub frames: Option<FramesWritten>,

@@ -6,24 +6,35 @@ use crate::lockstep::StepCounters;
 use crate::physics::Diagnostics;
 use crate::runtime::RuntimeStats;
 
+/// The report of one headless run, written as JSON by `--report` and summarised on the terminal.
 #[derive(Clone, Debug, Serialize)]
 pub struct RunReport {
+    /// The scene's `name`.
     pub scene: String,
+    /// The scene's file, or the built-in name it was chosen by.
     pub scene_file: String,
+    /// The engine that ran it (`threaded` or `lockstep`).
     pub engine: String,
+    /// The integrator's kebab-case name.
     pub integrator: String,
-    /// Time step, s.
+    /// Time step, s: lockstep's `dt`, or the threaded engine's nominal ball cycle.
     pub dt: f64,
+    /// Steps of `dt` taken (lockstep); 0 for the threaded engine, whose balls each take their own.
     pub steps: u64,
     /// Simulated seconds.
     pub simulated_seconds: f64,
     /// Wall-clock seconds spent stepping (diagnostics and I/O excluded).
     pub wall_seconds: f64,
+    /// Steps per wall-clock second of stepping (lockstep), or the median ball's cycles per second
+    /// (threaded).
     pub steps_per_second: f64,
+    /// Balls on the field at the end.
     pub balls: usize,
     /// The effects that ran, in order; walls always run.
     pub active_effects: Vec<String>,
+    /// Energies, momentum, overlap and wall impulses of the scene as it starts.
     pub start: Diagnostics,
+    /// The same at the end of the run.
     pub end: Diagnostics,
     /// Time per phase, summed over the run (lockstep).
     pub phases: Option<StepCounters>,
@@ -43,8 +54,11 @@ pub struct RunReport {
 /// threaded runtime the ball threads' stacks and channels).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct MemoryUse {
+    /// Resident set just before the engine was built, bytes.
     pub rss_before_bytes: u64,
+    /// Peak resident set of the process up to the end of the run, bytes.
     pub rss_peak_bytes: u64,
+    /// `(peak − before) / balls`, bytes.
     pub bytes_per_ball: f64,
 }
 
@@ -75,12 +89,17 @@ fn status_kib(key: &str) -> Option<u64> {
 /// What the threaded runtime measured about itself during a run.
 #[derive(Clone, Debug, Serialize)]
 pub struct ThreadedFigures {
+    /// The runtime's counters (cycles, messages, monitor passes, guard rails), flattened into
+    /// this object in the JSON.
     #[serde(flatten)]
     pub stats: RuntimeStats,
     /// CPU time the whole process used during the run, s, and as cores busy on average.
     pub cpu_seconds: f64,
+    /// `cpu_seconds` divided by the wall-clock seconds of stepping: cores busy on average.
     pub cpu_cores_used: f64,
+    /// Wall-clock time the shutdown took to stop and join every thread, s.
     pub shutdown_seconds: f64,
+    /// Threads the shutdown joined.
     pub threads_joined: usize,
 }
 

@@ -12,17 +12,50 @@ use serde::{Deserialize, Serialize};
 
 use crate::physics::{Ball, BallId, BallKind, Field};
 
+/// The columns of a state file, in order: the first line must name exactly these.
 pub const HEADER: [&str; 8] = ["id", "kind", "x", "y", "vx", "vy", "mass", "diameter"];
 
+/// Why a state file could not be read or written. Each message names the file and, where there
+/// is one, the line.
 #[derive(Debug, thiserror::Error)]
 pub enum StateFileError {
+    /// The file could not be opened, read or written.
+    ///
     /// The cause is part of the message, not a `source()`, so a printed chain says it once.
     #[error("{file}: {cause}")]
-    Io { file: PathBuf, cause: std::io::Error },
+    Io {
+        /// The state file.
+        file: PathBuf,
+        /// What the file system (or the CSV writer) said.
+        cause: std::io::Error,
+    },
+    /// The text is not a state CSV: a wrong header, a row with the wrong number of fields, or
+    /// CSV the reader cannot parse.
     #[error("{file}:{line}: {message}")]
-    Malformed { file: PathBuf, line: u64, message: String },
+    Malformed {
+        /// The state file.
+        file: PathBuf,
+        /// Line of the fault, from 1 (0 when the CSV reader gives no position).
+        line: u64,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A row is well formed but one of its values is not allowed (not a number, not finite, a
+    /// mass or diameter that is not positive, an unknown kind, a second key ball, a repeated id,
+    /// a ball outside the field).
     #[error("{file}:{line}: `{key}` = {value}: {problem}")]
-    Invalid { file: PathBuf, line: u64, key: String, value: String, problem: String },
+    Invalid {
+        /// The state file.
+        file: PathBuf,
+        /// Line of the row, from 1 (0 when the CSV reader gives no position).
+        line: u64,
+        /// The column, as named in [`HEADER`] (`x,y` for a ball outside the field).
+        key: String,
+        /// The value that is refused.
+        value: String,
+        /// What the value must be instead.
+        problem: String,
+    },
 }
 
 #[derive(Serialize, Deserialize)]

@@ -36,19 +36,27 @@ impl BallKind {
 /// One ball, in SI units: position and velocity of its centre (m, m/s), mass (kg), diameter (m).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Ball {
+    /// The ball's identity, kept when its velocity or mass is changed in place.
     pub id: BallId,
+    /// Whether this is the key ball (the one the arrow keys pull).
     pub kind: BallKind,
+    /// Position of the centre, m, in field coordinates (origin at the bottom-left corner, y up).
     pub position: DVec2,
+    /// Velocity of the centre, m/s.
     pub velocity: DVec2,
+    /// Mass, kg; positive for a ball that an engine accepts.
     pub mass: f64,
+    /// Diameter, m; positive for a ball that an engine accepts.
     pub diameter: f64,
 }
 
 impl Ball {
+    /// Radius, m: half the diameter.
     pub fn radius(&self) -> f64 {
         0.5 * self.diameter
     }
 
+    /// `1/m`, 1/kg: the factor an impulse is divided by, the form the contact solver uses.
     pub fn inverse_mass(&self) -> f64 {
         1.0 / self.mass
     }
@@ -58,20 +66,24 @@ impl Ball {
         disc_area(self.diameter)
     }
 
+    /// Momentum `m·v`, kg·m/s (N·s).
     pub fn momentum(&self) -> DVec2 {
         self.mass * self.velocity
     }
 
+    /// Kinetic energy `½·m·|v|²`, J.
     pub fn kinetic_energy(&self) -> f64 {
         0.5 * self.mass * self.velocity.length_squared()
     }
 
+    /// Whether position, velocity, mass and diameter are all finite (no NaN or infinity): the
+    /// first check on a ball read from a file or handed in by a caller.
     pub fn is_finite(&self) -> bool {
         self.position.is_finite() && self.velocity.is_finite() && self.mass.is_finite() && self.diameter.is_finite()
     }
 }
 
-/// Area of a disc of diameter `d`.
+/// Area of a disc of diameter `d` (m), m².
 pub fn disc_area(diameter: f64) -> f64 {
     let r = 0.5 * diameter;
     std::f64::consts::PI * r * r

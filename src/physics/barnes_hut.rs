@@ -98,6 +98,7 @@ fn spread(v: u32) -> u64 {
 }
 
 impl BarnesHut {
+    /// An empty tree; it allocates on its first build and reuses that memory afterwards.
     pub fn new() -> Self {
         Self::default()
     }
@@ -114,6 +115,7 @@ impl BarnesHut {
         self.index.len()
     }
 
+    /// Whether the tree holds no ball.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
@@ -457,8 +459,12 @@ impl BarnesHut {
 /// A ball of the near part of a split force ([`BarnesHut::split_at`]), copied out of the tree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NearBall {
+    /// Centre, m.
     pub position: DVec2,
+    /// Mass, kg.
     pub mass: f64,
+    /// Radius, m: closer than the sum of two radii the attraction falls linearly to zero (see
+    /// [`attraction_force`]).
     pub radius: f64,
 }
 

@@ -6,23 +6,37 @@ use glam::DVec2;
 use super::ball::{Ball, BallId, BallKind};
 use super::forces::BodyProps;
 
+/// A set of balls as parallel arrays, one entry per ball at the same index in each. The arrays
+/// are public so that the hot loops can borrow them separately (positions mutably, masses
+/// shared); [`Bodies::push`], [`Bodies::remove`] and [`Bodies::set_mass`] keep them the same
+/// length and the derived arrays (`inverse_mass`, `radius`) in step.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bodies {
+    /// Each ball's stable identity.
     pub id: Vec<BallId>,
+    /// Whether each ball is the key ball.
     pub kind: Vec<BallKind>,
+    /// Centres, m.
     pub position: Vec<DVec2>,
+    /// Velocities of the centres, m/s.
     pub velocity: Vec<DVec2>,
+    /// Masses, kg.
     pub mass: Vec<f64>,
+    /// `1/mass`, 1/kg, stored so that the contact solver multiplies instead of dividing.
     pub inverse_mass: Vec<f64>,
+    /// Diameters, m.
     pub diameter: Vec<f64>,
+    /// Radii, m: half the diameters, stored for the broad phase and contacts.
     pub radius: Vec<f64>,
 }
 
 impl Bodies {
+    /// An empty set.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// A set holding `balls`, in their order.
     pub fn from_balls(balls: &[Ball]) -> Self {
         let mut b = Bodies::default();
         for ball in balls {
@@ -43,14 +57,17 @@ impl Bodies {
         self.radius.clear();
     }
 
+    /// Number of balls.
     pub fn len(&self) -> usize {
         self.id.len()
     }
 
+    /// Whether the set holds no ball.
     pub fn is_empty(&self) -> bool {
         self.id.is_empty()
     }
 
+    /// Appends `ball` at the end, computing its inverse mass and radius.
     pub fn push(&mut self, ball: Ball) {
         self.id.push(ball.id);
         self.kind.push(ball.kind);
@@ -76,6 +93,8 @@ impl Bodies {
         ball
     }
 
+    /// A copy of ball `index` as a [`Ball`]. Panics if `index` is out of range, as slice
+    /// indexing does; callers look an id up with [`Bodies::index_of`] first.
     pub fn get(&self, index: usize) -> Ball {
         Ball {
             id: self.id[index],
@@ -87,10 +106,12 @@ impl Bodies {
         }
     }
 
+    /// The index of the ball with identity `id`, if it is in the set (a linear search).
     pub fn index_of(&self, id: BallId) -> Option<usize> {
         self.id.iter().position(|&x| x == id)
     }
 
+    /// The index of the first key ball, if there is one.
     pub fn key_index(&self) -> Option<usize> {
         self.kind.iter().position(|&k| k == BallKind::Key)
     }
@@ -101,14 +122,18 @@ impl Bodies {
         self.inverse_mass[index] = 1.0 / mass;
     }
 
+    /// Every ball as a [`Ball`], in index order.
     pub fn to_balls(&self) -> Vec<Ball> {
         (0..self.len()).map(|i| self.get(i)).collect()
     }
 
+    /// The per-ball constants the force evaluation reads (mass, inverse mass, diameter),
+    /// borrowed so that positions and velocities can be borrowed mutably beside them.
     pub fn props(&self) -> BodyProps<'_> {
         BodyProps { mass: &self.mass, inverse_mass: &self.inverse_mass, diameter: &self.diameter }
     }
 
+    /// The largest diameter, m; 0 for an empty set.
     pub fn largest_diameter(&self) -> f64 {
         self.diameter.iter().copied().fold(0.0, f64::max)
     }

@@ -127,6 +127,8 @@ fn touching(a: &[f64; 3], b: &[f64; 3]) -> bool {
 }
 
 impl BroadPhase {
+    /// An empty broad phase with no margin and no skin; it allocates on its first update and
+    /// reuses that memory afterwards.
     pub fn new() -> Self {
         Self::default()
     }

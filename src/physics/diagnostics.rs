@@ -35,14 +35,18 @@ pub struct Diagnostics {
     pub outside: usize,
 }
 
+/// Total kinetic energy `Σ ½·m·|v|²`, J.
 pub fn kinetic_energy(bodies: &Bodies) -> f64 {
     bodies.mass.iter().zip(&bodies.velocity).map(|(m, v)| 0.5 * m * v.length_squared()).sum()
 }
 
+/// Total momentum `Σ m·v`, kg·m/s.
 pub fn momentum(bodies: &Bodies) -> DVec2 {
     bodies.mass.iter().zip(&bodies.velocity).map(|(m, v)| *m * *v).sum()
 }
 
+/// Potential energy in uniform gravity, `Σ −m·g·x`, J (zero at y = 0, the floor); 0 with
+/// gravity off.
 pub fn gravity_potential_energy(bodies: &Bodies, effects: &Effects) -> f64 {
     match &effects.gravity {
         Some(g) => bodies.mass.iter().zip(&bodies.position).map(|(m, p)| gravity_potential(*m, *p, g)).sum(),

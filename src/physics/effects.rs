@@ -32,8 +32,9 @@ impl Default for Gravity {
     }
 }
 
-/// Air drag.
+/// Air drag. Its serde form is a scene file's: `{ model = "quadratic", rho = 1.225, cd = 0.47 }`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Drag {
     /// `F = −½·ρ·C_d·A·|v|·v`, A = π(d/2)²: fast balls in air.
     Quadratic { rho: f64, cd: f64 },

@@ -5,7 +5,9 @@ use serde::{Deserialize, Serialize};
 /// The field the balls move in.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Field {
+    /// Extent along x, m: the right wall is at `x = width`.
     pub width: f64,
+    /// Extent along y, m: the top wall is at `y = height`.
     pub height: f64,
     /// Coefficient of restitution of the walls, in [0, 1].
     pub restitution: f64,
@@ -30,9 +32,13 @@ impl Field {
 /// One of the four walls.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Wall {
+    /// The wall at `x = 0`.
     Left,
+    /// The wall at `x = width`.
     Right,
+    /// The floor, at `y = 0`.
     Bottom,
+    /// The ceiling, at `y = height`.
     Top,
 }
 
@@ -40,13 +46,18 @@ pub enum Wall {
 /// Divided by the elapsed time and the wall's length it is the pressure on that wall.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct WallImpulses {
+    /// Impulse taken by the left wall (`x = 0`), N·s.
     pub left: f64,
+    /// Impulse taken by the right wall (`x = width`), N·s.
     pub right: f64,
+    /// Impulse taken by the floor (`y = 0`), N·s: for a resting pile, its weight times the time.
     pub bottom: f64,
+    /// Impulse taken by the ceiling (`y = height`), N·s.
     pub top: f64,
 }
 
 impl WallImpulses {
+    /// Adds `impulse` (N·s, a magnitude) to the tally of `wall`.
     #[inline]
     pub fn add(&mut self, wall: Wall, impulse: f64) {
         match wall {
@@ -65,6 +76,7 @@ impl WallImpulses {
         self.top += other.top;
     }
 
+    /// Sum of the four walls' impulses, N·s.
     pub fn total(&self) -> f64 {
         self.left + self.right + self.bottom + self.top
     }

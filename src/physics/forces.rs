@@ -6,7 +6,9 @@
 use glam::DVec2;
 
 use super::barnes_hut::BarnesHut;
-use super::effects::{Attraction, Drag, Effects, attraction_pair, cap_drag_rate, drag_force, drag_rate};
+use super::effects::{
+    Attraction, Drag, Effects, attraction_pair, cap_drag_rate, drag_force, drag_rate, drag_rate_bound,
+};
 
 /// Per-ball constants that forces need, as parallel slices indexed like the state.
 #[derive(Clone, Copy, Debug)]
@@ -16,11 +18,95 @@ pub struct BodyProps<'a> {
     pub diameter: &'a [f64],
 }
 
+/// One ball's constants, for the passes evaluated on one ball alone ([`Forces::on_ball`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BallProps {
+    pub mass: f64,
+    pub inverse_mass: f64,
+    pub diameter: f64,
+}
+
 /// A force applied to one ball, e.g. the player's pull on the key ball.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointForce {
     pub index: usize,
     pub force: DVec2,
+}
+
+/// The other balls' pull on one ball, for the passes evaluated on that ball alone
+/// ([`Forces::on_ball`]): a tree split's far force plus its near balls, or a direct sum over the
+/// others' last known states — whatever the engine holds.
+pub trait OtherBalls {
+    /// Their force (N), under `attraction`, on a ball of `mass` and `radius` at `x`.
+    fn force_at(&self, x: DVec2, mass: f64, radius: f64, attraction: &Attraction) -> DVec2;
+}
+
+impl<T: OtherBalls + ?Sized> OtherBalls for &T {
+    #[inline]
+    fn force_at(&self, x: DVec2, mass: f64, radius: f64, attraction: &Attraction) -> DVec2 {
+        (**self).force_at(x, mass, radius, attraction)
+    }
+}
+
+/// The force passes on one ball alone (see [`Forces::on_ball`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BallForces<'a, O> {
+    forces: &'a Forces,
+    ball: BallProps,
+    pull: DVec2,
+    others: O,
+}
+
+impl<O: OtherBalls> BallForces<'_, O> {
+    /// The ball's acceleration at `x` moving at `v`: the passes of [`Forces::accelerations`] in
+    /// the same order (gravity, drag under its rate limit, attraction from the other balls, then
+    /// the pull).
+    #[inline]
+    pub fn acceleration(&self, x: DVec2, v: DVec2) -> DVec2 {
+        self.sum::<true>(x, v)
+    }
+
+    /// The largest drag rate the ball at `x` moving at `v` can meet (see
+    /// [`crate::physics::drag_rate_bound`]): at its speed now, or at the terminal speed gravity,
+    /// attraction and the pull drive it to. 0 with drag off.
+    pub fn drag_rate(&self, x: DVec2, v: DVec2) -> f64 {
+        let Some(drag) = self.forces.drag() else { return 0.0 };
+        drag_rate_bound(v, self.sum::<false>(x, v), self.ball.diameter, self.ball.mass, &drag)
+    }
+
+    /// The other balls, as given to [`Forces::on_ball`].
+    pub fn others(&self) -> &O {
+        &self.others
+    }
+
+    /// Whether the acceleration depends on velocity (drag is on).
+    pub fn depends_on_velocity(&self) -> bool {
+        self.forces.depends_on_velocity()
+    }
+
+    /// The acceleration, the drag pass included only when `DRAG`.
+    #[inline]
+    fn sum<const DRAG: bool>(&self, x: DVec2, v: DVec2) -> DVec2 {
+        let BallProps { mass, inverse_mass, diameter } = self.ball;
+        let mut acc = DVec2::ZERO;
+        for pass in &self.forces.passes {
+            match pass {
+                ForcePass::Gravity(g) => acc += *g,
+                ForcePass::Drag(drag) if DRAG => {
+                    let a = drag_force(v, diameter, drag) * inverse_mass;
+                    // Under no limit the cap is the identity: its square root is spared, as in
+                    // the whole-field pass.
+                    let limit = self.forces.drag_rate_limit;
+                    acc += if limit.is_finite() { cap_drag_rate(a, v, limit) } else { a };
+                }
+                ForcePass::Drag(_) => {}
+                ForcePass::Attraction(attraction) => {
+                    acc += self.others.force_at(x, mass, 0.5 * diameter, attraction) * inverse_mass;
+                }
+            }
+        }
+        acc + self.pull * inverse_mass
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,12 +192,13 @@ impl Forces {
 
     /// A guard rail for drag too stiff for the shortest step the engine takes: the drag pass
     /// then caps each ball's drag rate (`|a_drag|/|v|`) at `limit`, so an explicit stage can stop
-    /// a ball but never throw it back faster. The engines set `1/h` for a sub-step whose drag
-    /// rate they could not bring below `MAX_DRAG_STEP/h` (they split down to a floor of
-    /// dt/4,096 only) and `+∞` otherwise — the default, under which the pass is exactly the plain
-    /// formula. Found by tests/fuzz.rs: a 1 g ball of 1 m thrown to 1e5 m/s by a 5e5 kg grain with
-    /// G = 1 meets a drag rate of 2e7/s; at the floor's 0.24 µs every stage multiplied its
-    /// speed by about −5 and squared it again, to infinity within one sub-step.
+    /// a ball but never throw it back faster. The engines set what the step policy says
+    /// ([`crate::physics::SubSteps::drag_rate_limit`]): `1/h` for a sub-step whose drag rate
+    /// it could not bring below `MAX_DRAG_STEP/h` (it splits down to a floor of dt/4,096 only)
+    /// and `+∞` otherwise — the default, under which the pass is exactly the plain formula.
+    /// Found by tests/fuzz.rs: a 1 g ball of 1 m thrown to 1e5 m/s by a 5e5 kg grain with G = 1
+    /// meets a drag rate of 2e7/s; at the floor's 0.24 µs every stage multiplied its speed by
+    /// about −5 and squared it again, to infinity within one sub-step.
     pub fn set_drag_rate_limit(&mut self, limit: f64) {
         self.drag_rate_limit = limit;
     }
@@ -161,7 +248,7 @@ impl Forces {
 
     /// The largest `ω²` (see [`crate::physics::attraction_rate_squared`]) the attraction pass met in the force
     /// evaluations since the last call, and forgets it; `None` if there was none (attraction off,
-    /// or no evaluation since). The engines split their steps by it without a pass of their own.
+    /// or no evaluation since). Lockstep splits its steps by it without a pass of its own.
     pub fn take_orbit_rate_squared(&mut self) -> Option<f64> {
         self.orbit_rate_squared.take()
     }
@@ -170,7 +257,7 @@ impl Forces {
     /// terminal speed their other forces (gravity, attraction, the pull) drive them to, as met in
     /// the force evaluations since the last call (see [`crate::physics::drag_rate_bound`]), and
     /// forgets it; `None` if there was none. Attraction can pull a light, large ball hard enough
-    /// that drag turns stiff within one step: the engines split their steps by this rate too.
+    /// that drag turns stiff within one step: lockstep splits its steps by this rate too.
     pub fn take_terminal_drag_rate(&mut self) -> Option<f64> {
         self.terminal_drag_rate4.take().map(|r4| r4.sqrt().sqrt())
     }
@@ -182,15 +269,10 @@ impl Forces {
         self.terminal_drag_rate4 = None;
     }
 
-    /// The largest `ω²` of the balls at `pos` now, by a force evaluation of the attraction pass
-    /// alone (0 with attraction off). For when [`Forces::take_orbit_rate_squared`] has nothing.
-    pub fn orbit_rate_squared(&mut self, props: BodyProps<'_>, pos: &[DVec2]) -> f64 {
-        self.attraction_rates(props, pos).0
-    }
-
-    /// [`Forces::orbit_rate_squared`], and the terminal drag rate of
-    /// [`Forces::take_terminal_drag_rate`] (0 without quadratic drag) from the same evaluation
-    /// (without the pull, which the evaluation does not know).
+    /// The largest `ω²` of the balls at `pos` now (0 with attraction off), and the terminal drag
+    /// rate of [`Forces::take_terminal_drag_rate`] (0 without quadratic drag), by one force
+    /// evaluation of the attraction pass alone (without the pull, which the evaluation does not
+    /// know). For when [`Forces::take_orbit_rate_squared`] has nothing.
     pub fn attraction_rates(&mut self, props: BodyProps<'_>, pos: &[DVec2]) -> (f64, f64) {
         let Some(attraction) = self.attraction_effect() else {
             return (0.0, 0.0);
@@ -291,6 +373,23 @@ impl Forces {
             local_pass(pass, self.drag_rate_limit, props, vel, acc);
         }
         add_pull(pull, props, acc);
+    }
+
+    /// The passes on one ball alone, for an engine that advances each ball by itself (the
+    /// threaded runtime's ball threads): `ball` with the force `pull` (N) on it, and the other
+    /// balls' pull from `others` (the caller holds the other balls, the passes do not). See
+    /// [`BallForces`].
+    #[inline]
+    pub fn on_ball<O: OtherBalls>(&self, ball: BallProps, pull: DVec2, others: O) -> BallForces<'_, O> {
+        BallForces { forces: self, ball, pull, others }
+    }
+
+    /// The drag, of either kind.
+    fn drag(&self) -> Option<Drag> {
+        self.passes.iter().find_map(|p| match p {
+            ForcePass::Drag(d) => Some(*d),
+            _ => None,
+        })
     }
 
     /// Adds the attraction accelerations to `acc`; returns the largest `ω²` met.

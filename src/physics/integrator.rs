@@ -34,6 +34,8 @@ pub enum Integrator {
 }
 
 impl Integrator {
+    /// Every method, by order of accuracy (the two Euler methods first); the accuracy study
+    /// compares them in this order.
     pub const ALL: [Integrator; 5] = [
         Integrator::ExplicitEuler,
         Integrator::SemiImplicitEuler,
@@ -42,6 +44,7 @@ impl Integrator {
         Integrator::Yoshida4,
     ];
 
+    /// The kebab-case name used in scene files and on the command line (`semi-implicit-euler`).
     pub fn name(self) -> &'static str {
         match self {
             Integrator::ExplicitEuler => "explicit-euler",
@@ -61,6 +64,8 @@ impl Integrator {
         }
     }
 
+    /// Whether the method is symplectic, so that its energy error stays bounded for
+    /// position-only forces instead of drifting.
     pub fn is_symplectic(self) -> bool {
         !matches!(self, Integrator::ExplicitEuler | Integrator::Rk4)
     }

@@ -13,6 +13,7 @@ mod effects;
 mod field;
 mod forces;
 mod integrator;
+mod step_policy;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
@@ -33,5 +34,6 @@ pub use effects::{
     gravity_force, gravity_potential, quadratic_terminal_speed,
 };
 pub use field::{Field, Wall, WallImpulses};
-pub use forces::{AttractionMethod, BodyProps, Forces, PointForce, TREE_MIN_BALLS};
+pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
+pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};

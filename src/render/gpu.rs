@@ -10,19 +10,24 @@ pub fn instance_descriptor() -> wgpu::InstanceDescriptor {
     desc.with_env()
 }
 
-/// The nice value the drawing thread asks for: above the ball threads (+5) and the collision
-/// monitor (-5) of the threaded runtime.
+/// The nice value the drawing thread asks for: lower (a larger CPU share) than the collision
+/// monitor's −5 and every ordinary nice-0 thread; the ball threads run at `SCHED_IDLE` (see
+/// `runtime::ball_thread`'s `background_scheduling`).
 const RENDER_NICE: libc::c_int = -10;
 
-/// Asks Linux to run the calling thread, and the threads it creates from now on, at
-/// [`RENDER_NICE`]. Call it before creating the GPU device: Mesa's CPU rasteriser (lavapipe,
-/// llvmpipe) draws on worker threads made with the device, and they inherit the value.
+/// Asks Linux to run the calling thread, and the threads it creates from now on, at nice −10.
+/// Call it before creating the GPU device: Mesa's CPU rasteriser (lavapipe, llvmpipe) draws on
+/// worker threads made with the device, and they inherit the value.
 ///
-/// Why: with hundreds of ball threads runnable, the scheduler shares the CPU by weight, and
-/// nice +5 ball threads still outweigh a nice 0 drawing thread a hundredfold — a 500-ball
-/// threaded run drew a frame in ~110 ms at nice 0 and in ~11 ms at -10 on the 2-core CI machine.
-/// Lowering niceness needs privilege (root or CAP_SYS_NICE, or RLIMIT_NICE): without it this
-/// changes nothing and says so at debug level.
+/// Why: on a CPU adapter a frame is drawn by the CPU, which it shares with the simulation. The
+/// threaded runtime's ball threads (all but the key ball's) run at `SCHED_IDLE` and take only the
+/// CPU nobody else wants, and its collision monitor asks for nice −5. At −10 the drawing thread
+/// and Mesa's workers, when they compete for a core, get about three times the monitor's share
+/// and nine times a nice-0 thread's (the kernel's weights: 9548 against 3121 and 1024), so a
+/// frame is not held up by the simulation (the frame times behind this are in
+/// docs/measurements.md, *Figures behind the renderer's choices*). Lowering niceness needs
+/// privilege (root or CAP_SYS_NICE, or RLIMIT_NICE): without it this changes nothing and says so
+/// at debug level.
 pub fn raise_render_priority() {
     #[cfg(target_os = "linux")]
     {
@@ -37,9 +42,14 @@ pub fn raise_render_priority() {
 
 /// A device and its queue, with the adapter's description.
 pub struct Gpu {
+    /// The instance the adapter came from, kept so that the window can make its surface again,
+    /// when it is lost, on the instance its device belongs to.
     pub instance: wgpu::Instance,
+    /// The adapter the device was opened on: for its surface capabilities and description.
     pub adapter: wgpu::Adapter,
+    /// The device every pipeline, buffer and texture of the renderer is made on.
     pub device: wgpu::Device,
+    /// The device's queue: buffer writes and command submissions go through it.
     pub queue: wgpu::Queue,
 }
 

@@ -21,7 +21,10 @@ pub struct Layout {
     pub scale: f64,
     /// Pixel position (from the top-left corner) of the field's lower-left corner.
     pub origin: DVec2,
+    /// The whole target's width, pixels (not the viewport's).
     pub width: u32,
+    /// The whole target's height, pixels (not the viewport's): the shaders, whose pixels count
+    /// from the bottom, get the origin flipped with it.
     pub height: u32,
 }
 

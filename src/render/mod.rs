@@ -22,22 +22,43 @@ pub use snapshot::{BallSprite, BallStyle, FrameSnapshot, Segment, ball_colour, p
 /// Why drawing failed.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// wgpu found no adapter for the backends tried (see [`instance_descriptor`]); the string is
+    /// wgpu's reason. On a machine without a GPU this means Mesa's CPU drivers are missing.
     #[error(
         "no GPU adapter found ({0}); on a machine without a GPU install Mesa's drivers (libegl-mesa0 and libgl1-mesa-dri, or mesa-vulkan-drivers)"
     )]
     NoAdapter(String),
+    /// The adapter refused to open a device with the limits asked for; the string is wgpu's
+    /// reason.
     #[error("cannot open the GPU device: {0}")]
     Device(String),
+    /// A target of this size cannot be made: a side is 0, or larger than the device's
+    /// `max_texture_dimension_2d`.
     #[error("a {width}×{height} target is not possible: each side must be from 1 to {max} pixels")]
-    Size { width: u32, height: u32, max: u32 },
+    Size {
+        /// The width asked for, pixels.
+        width: u32,
+        /// The height asked for, pixels.
+        height: u32,
+        /// The device's largest texture side, pixels.
+        max: u32,
+    },
+    /// Waiting for the GPU, or mapping and reading the readback buffer, failed; the string is
+    /// the cause.
     #[error("reading the frame back failed: {0}")]
     Readback(String),
 }
 
 /// Draws one frame offscreen and returns its pixels: the whole path, for tests and tools.
 pub struct OffscreenRenderer {
+    /// The headless device it draws with: public so that callers can name the adapter, make
+    /// other targets, or record more drawing (a panel) with its device and queue.
     pub gpu: Gpu,
+    /// Pipelines for [`OFFSCREEN_FORMAT`]; its [`BallPath`] can be set to compare the ways of
+    /// drawing balls.
     pub renderer: Renderer,
+    /// The texture frames are drawn into and read back from; it can be replaced by another of
+    /// [`OFFSCREEN_FORMAT`] (say an [`Offscreen::draw_only`] one) made on `gpu.device`.
     pub target: Offscreen,
 }
 

@@ -5,7 +5,8 @@ use super::RenderError;
 /// The format of offscreen frames: RGBA bytes, written as they are into the PNGs (which are
 /// sRGB). Not an `…Srgb` format: the shaders then write sRGB-encoded colour directly and blend in
 /// that space, as egui does in the window — and a CPU rasteriser blends into a plain UNORM target
-/// about twice as fast (an empty 1280×720 frame: 0.9 ms against 1.9 ms).
+/// about twice as fast as into an sRGB one (docs/measurements.md, *Figures behind the renderer's
+/// choices*).
 pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 /// A texture of a fixed size and the buffer its pixels are copied to.
@@ -20,6 +21,8 @@ pub struct Offscreen {
 }
 
 impl Offscreen {
+    /// A `width × height` pixel target of [`OFFSCREEN_FORMAT`] that can be drawn into, copied
+    /// into and read back; [`RenderError::Size`] if a side is 0 or beyond the device's limit.
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<Offscreen, RenderError> {
         // COPY_DST: small balls are splatted into it (see `BallPath::Splat`).
         Self::with_usage(device, width, height, wgpu::TextureUsages::COPY_DST)
@@ -62,10 +65,12 @@ impl Offscreen {
         Ok(Offscreen { texture, view, readback, width, height, padded_row })
     }
 
+    /// The view to draw into: what [`Renderer::render`](super::Renderer::render) takes.
     pub fn view(&self) -> &wgpu::TextureView {
         &self.view
     }
 
+    /// `(width, height)`, pixels.
     pub fn size(&self) -> (u32, u32) {
         (self.width, self.height)
     }

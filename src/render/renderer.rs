@@ -42,21 +42,25 @@ pub enum BallPath {
     Triangles,
 }
 
-/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats. On lavapipe
-/// (1280×720, 100 and 1,000 balls of 2–64 px radius) the splat was as fast as triangles or faster
-/// up to about 32 px: a CPU rasteriser pays for every primitive and for every pixel of its
-/// fragment shader too. Beyond, a few large balls are cheaper as triangles.
+/// The largest radius on screen, pixels, of a ball [`BallPath::Auto`] splats. A CPU rasteriser
+/// pays for every primitive and, through its fragment shader, for every pixel a triangle covers
+/// too, so the splat is as fast as triangles or faster up to fairly large balls; beyond, a few
+/// large balls are cheaper as triangles. 16 px is half the radius at which the two measured even
+/// on lavapipe (docs/measurements.md, *Figures behind the renderer's choices*).
 pub const SPLAT_MAX_RADIUS_PX: f32 = 16.0;
 
 /// The fewest small balls for which [`BallPath::Auto`] splats. Below, a frame costs well under a
-/// millisecond either way (10–100 balls: 0.6–0.9 ms on lavapipe at 1280×720, both ways), and a
+/// millisecond either way (docs/measurements.md, *Figures behind the renderer's choices*), and a
 /// few balls on a large target are cheaper as triangles than filling and writing the whole field.
 pub const SPLAT_MIN_BALLS: usize = 100;
 
 /// How the balls of a frame were drawn (see [`BallPath`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameBalls {
+    /// Balls whose pixels the CPU computed ([`BallPath::Splat`]).
     pub splatted: usize,
+    /// Balls drawn as GPU primitives ([`BallPath::Triangles`], [`BallPath::Expanded`] or
+    /// [`BallPath::Instanced`]).
     pub primitives: usize,
 }
 
@@ -70,6 +74,14 @@ enum Split {
     /// otherwise they were sorted into `Renderer::small` and `Renderer::large`. With `copy`, the
     /// pixels are copied into the target; otherwise drawn onto it (a [`SplatBlit`]).
     Splatted { rect: PixelRect, order: PixelOrder, all: bool, copy: bool },
+}
+
+/// The balls of a frame drawn as primitives: how, and how many.
+#[derive(Clone, Copy, Debug)]
+struct Primitives {
+    /// [`BallPath::Instanced`], [`BallPath::Expanded`] or [`BallPath::Triangles`].
+    path: BallPath,
+    count: u32,
 }
 
 /// The uniform both shaders read (see `struct Globals` in them).
@@ -307,6 +319,7 @@ impl Renderer {
         self.format
     }
 
+    /// How balls are drawn: [`BallPath::Auto`] unless [`Self::set_ball_path`] chose another.
     pub fn ball_path(&self) -> BallPath {
         self.path
     }
@@ -335,6 +348,22 @@ impl Renderer {
     pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, snapshot: &FrameSnapshot) {
         let size = view.texture().size();
         let layout = snapshot.layout(size.width, size.height);
+        let globals = self.write_globals(&layout, size);
+        let background = self.write_segments(snapshot);
+        let split = self.splat_small_balls(encoder, view.texture(), snapshot, &layout, &globals);
+        let primitives = self.write_primitives(snapshot, split);
+        // After a splat copied into the target the field's pixels are there already (the copy is
+        // recorded before this pass), and the bands cover every pixel outside the field.
+        let load = match split {
+            Split::Splatted { copy: true, .. } => wgpu::LoadOp::Load,
+            _ => wgpu::LoadOp::Clear(self.field_colour()),
+        };
+        let overlays = snapshot.overlays.len() as u32;
+        self.draw_pass(encoder, view, load, background, primitives, overlays);
+    }
+
+    /// Where the field lands on the target, for both shaders.
+    fn write_globals(&self, layout: &Layout, size: wgpu::Extent3d) -> Globals {
         let globals = Globals {
             scale: layout.scale as f32,
             srgb_target: self.format.is_srgb() as u32,
@@ -343,13 +372,19 @@ impl Renderer {
             _pad: [0.0; 2],
         };
         self.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        globals
+    }
 
-        // The target is cleared to the field's colour; then the walls and the letterbox are drawn
-        // as opaque bands reaching far outside the field (clipped), so no pixel of the field
-        // itself is painted twice before the balls: on a CPU rasteriser every covered pixel
-        // costs. Each band is a segment with a huge metric half width; its pixel part moves its
-        // inner end: 0 for the walls (they start at the field's edge), -WALL_PX for the
-        // letterbox (it starts WALL_PX further out).
+    /// Uploads the background bands (the walls and the letterbox), then the overlays; returns how
+    /// many bands come first.
+    ///
+    /// The target is cleared to the field's colour, and the walls and the letterbox are drawn as
+    /// opaque bands reaching far outside the field (clipped), so no pixel of the field itself is
+    /// painted twice: on a CPU rasteriser every covered pixel costs. Each band
+    /// is a segment with a huge metric half width; its pixel part moves its inner end: 0 for the
+    /// walls (they start at the field's edge), -WALL_PX for the letterbox (it starts WALL_PX
+    /// further out).
+    fn write_segments(&mut self, snapshot: &FrameSnapshot) -> u32 {
         let (w, h) = (snapshot.field.width as f32, snapshot.field.height as f32);
         self.segment_scratch.clear();
         for (px, colour) in [(0.0, palette::WALL), (-WALL_PX, palette::OUTSIDE_PACKED)] {
@@ -365,34 +400,51 @@ impl Renderer {
         let background = self.segment_scratch.len() as u32;
         self.segment_scratch.extend_from_slice(&snapshot.overlays);
         self.segment_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.segment_scratch));
+        background
+    }
 
-        // Which balls are splatted, which drawn as primitives.
-        let mut split = self.sort_balls(snapshot, &layout, view.texture());
-        if let Split::Splatted { rect, order, all, copy } = split {
-            let place =
-                Placement { scale: globals.scale, origin: [globals.origin[0], size.height as f32 - globals.origin[1]] };
-            let small = if all { &snapshot.balls } else { &self.small };
-            if !self.splat.draw(&self.device, small, place, rect, order) {
-                split = Split::AllPrimitives;
-            } else if copy {
-                self.splat.upload(encoder, view.texture(), [rect[0], rect[1]]);
-            } else {
-                let target = [size.width, size.height];
-                self.splat_blit.prepare(&self.device, &self.queue, encoder, &self.splat, target);
-            }
+    /// Decides which balls are splatted and which drawn as primitives ([`Self::sort_balls`]),
+    /// splats the small ones and records their copy into `target` (or prepares their blit onto
+    /// it). Falls back to all primitives if the splat cannot be drawn.
+    fn splat_small_balls(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::Texture,
+        snapshot: &FrameSnapshot,
+        layout: &Layout,
+        globals: &Globals,
+    ) -> Split {
+        let split = self.sort_balls(snapshot, layout, target);
+        let Split::Splatted { rect, order, all, copy } = split else { return split };
+        let height = target.height();
+        let place = Placement { scale: globals.scale, origin: [globals.origin[0], height as f32 - globals.origin[1]] };
+        let small = if all { &snapshot.balls } else { &self.small };
+        if !self.splat.draw(&self.device, small, place, rect, order) {
+            return Split::AllPrimitives;
         }
+        if copy {
+            self.splat.upload(encoder, target, [rect[0], rect[1]]);
+        } else {
+            self.splat_blit.prepare(&self.device, &self.queue, encoder, &self.splat, [target.width(), height]);
+        }
+        split
+    }
+
+    /// Uploads the balls drawn as primitives this frame (all of them, none, or the large ones, as
+    /// `split` says) in the layout their pipeline reads, and counts the frame's balls.
+    fn write_primitives(&mut self, snapshot: &FrameSnapshot, split: Split) -> Primitives {
         let large: &[BallSprite] = match split {
             Split::AllPrimitives => &snapshot.balls,
             Split::Splatted { all: true, .. } => &[],
             Split::Splatted { all: false, .. } => &self.large,
         };
         self.last_frame = FrameBalls { splatted: snapshot.balls.len() - large.len(), primitives: large.len() };
-        let n = large.len() as u32;
-        let raster = match self.path {
+        let count = large.len() as u32;
+        let path = match self.path {
             BallPath::Instanced | BallPath::Expanded => self.path,
             _ => BallPath::Triangles,
         };
-        match raster {
+        match path {
             BallPath::Instanced => {
                 self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(large));
             }
@@ -400,9 +452,9 @@ impl Renderer {
                 self.expanded.clear();
                 self.expanded.extend(large.iter().flat_map(|b| [*b; 4]));
                 self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
-                if n > self.indexed_balls {
+                if count > self.indexed_balls {
                     // Indices only change when the count grows past what they cover.
-                    let cover = n.next_power_of_two();
+                    let cover = count.next_power_of_two();
                     let indices: Vec<u32> = (0..cover).flat_map(|b| [0, 1, 2, 2, 1, 3].map(|k| 4 * b + k)).collect();
                     self.index_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&indices));
                     self.indexed_balls = cover;
@@ -414,19 +466,30 @@ impl Renderer {
                 self.ball_buffer.write(&self.device, &self.queue, bytemuck::cast_slice(&self.expanded));
             }
         }
+        Primitives { path, count }
+    }
 
+    /// The field's colour, as the target stores it.
+    fn field_colour(&self) -> wgpu::Color {
         let [r, g, b] = palette::FIELD_RGB;
-        let clear = if self.format.is_srgb() {
+        if self.format.is_srgb() {
             wgpu::Color { r: srgb_to_linear(r), g: srgb_to_linear(g), b: srgb_to_linear(b), a: 1.0 }
         } else {
             wgpu::Color { r, g, b, a: 1.0 }
-        };
-        // After a splat copied into the target the field's pixels are there already (the copy is
-        // recorded before this pass), and the bands below cover every pixel outside the field.
-        let load = match split {
-            Split::Splatted { copy: true, .. } => wgpu::LoadOp::Load,
-            _ => wgpu::LoadOp::Clear(clear),
-        };
+        }
+    }
+
+    /// The render pass: the splatted pixels if they are blitted, the balls drawn as primitives,
+    /// the `background` bands, then the `overlays` segments after the bands.
+    fn draw_pass(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        load: wgpu::LoadOp<wgpu::Color>,
+        background: u32,
+        balls: Primitives,
+        overlays: u32,
+    ) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("ballfield"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -443,11 +506,9 @@ impl Renderer {
         // The splatted pixels, when they could not be copied in; the blit binds its own group 0.
         self.splat_blit.draw(&mut pass);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.background);
-        pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
-        pass.draw(0..4, 0..background);
+        let n = balls.count;
         if n > 0 {
-            match raster {
+            match balls.path {
                 BallPath::Instanced => {
                     pass.set_pipeline(&self.balls_strip);
                     pass.set_vertex_buffer(0, self.ball_buffer.buffer.slice(..));
@@ -466,7 +527,12 @@ impl Renderer {
                 }
             }
         }
-        let overlays = snapshot.overlays.len() as u32;
+        // The bands after the balls, so that what of a ball reaches over a wall or out of the
+        // field is hidden as it is when the ball is splatted (the splat draws only the field's
+        // pixels, and the bands go over its edge).
+        pass.set_pipeline(&self.background);
+        pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));
+        pass.draw(0..4, 0..background);
         if overlays > 0 {
             pass.set_pipeline(&self.segments);
             pass.set_vertex_buffer(0, self.segment_buffer.buffer.slice(..));

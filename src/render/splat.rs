@@ -5,12 +5,13 @@
 //!
 //! Why: Mesa's CPU rasterisers (lavapipe, llvmpipe) spend about a microsecond on each primitive
 //! — setup, binning, a fragment-shader call per 4×4 block touched — however few pixels it
-//! covers. 100,000 balls 1.6 px across took ~90 ms as triangles and ~60 ms as one-pixel points,
-//! while their vertex work was ~3 ms. A compute shader adding every ball's pixels into a buffer
-//! with atomics took ~30 ms: lavapipe runs a storage-buffer atomic lane by lane. Here, four
-//! pixels of a row at a time in SIMD, band by band on rayon's threads, they take a few
-//! milliseconds, and the copy (~4 MB at 1280×720) well under one. On a real GPU none of this
-//! pays: there [`super::BallPath::Auto`] draws triangles.
+//! covers, so many small balls cost many times their vertex work, as triangles or as one-pixel
+//! points alike. A compute shader adding every ball's pixels into a buffer with
+//! atomics is no way out: lavapipe runs a storage-buffer atomic lane by lane. Here, four pixels
+//! of a row at a time in SIMD, band by band on rayon's threads, a pixel costs a few nanoseconds,
+//! and the copy (4 bytes a pixel, ~3.7 MB at 1280×720) is a small part of the frame. The frame
+//! times of each way are in docs/measurements.md (*Rendering and the window*). On a real GPU
+//! none of this pays: there [`super::BallPath::Auto`] draws triangles.
 
 use rayon::prelude::*;
 
@@ -137,9 +138,10 @@ impl Splat {
     /// mapped.
     ///
     /// Why a buffer of our own, kept from frame to frame, rather than `Queue::write_texture`:
-    /// that makes a new staging buffer at every call, and on llvmpipe (GL) each was fresh memory
-    /// from the system — 4 MB of page faults a frame, about 2 ms. Mapping it again waits for the
-    /// GPU to have copied the last frame out of it, which the caller has already waited for.
+    /// that makes a new staging buffer at every call, and on llvmpipe (GL) each is fresh memory
+    /// from the system: a frame pays the page faults of all its pixels (the cost is in
+    /// docs/measurements.md, *Figures behind the renderer's choices*). Mapping it again waits for
+    /// the GPU to have copied the last frame out of it, which the caller has already waited for.
     fn mapped_staging(&mut self, device: &wgpu::Device, bytes: u64) -> Option<wgpu::Buffer> {
         if self.staging.as_ref().is_none_or(|b| b.size() < bytes) {
             self.staging = Some(device.create_buffer(&wgpu::BufferDescriptor {
@@ -225,7 +227,8 @@ impl Splat {
             }
         };
         // The bands share no pixel: they are drawn on rayon's threads, and every pixel comes out
-        // the same however they are shared (about a third off a 100,000-ball frame on 2 cores).
+        // the same however they are shared (the gain is in docs/measurements.md, *Figures behind
+        // the renderer's choices*).
         self.pixels.par_chunks_mut(BAND_ROWS * stride).enumerate().with_min_len(4).for_each(draw_band);
     }
 
@@ -563,15 +566,79 @@ mod tests {
         assert_eq!(bgra, (rgba & 0xFF00_FF00) | ((rgba & 0xFF) << 16) | ((rgba >> 16) & 0xFF));
     }
 
+    /// The pixel a plain ball (style 0) gives over `under`, written out from `fs_main` in
+    /// `shaders/balls.wgsl` (not from `Disc`): coverage `clamp(r + ½ − d, 0, 1)`, and a rim 35%
+    /// darker within 1.5 px of the edge.
+    fn reference_pixel(under: [f64; 3], ball: &BallSprite, place: Placement, px: [f64; 2]) -> [f64; 3] {
+        let scale = place.scale as f64;
+        let centre = [place.origin[0] as f64 + ball.x as f64 * scale, place.origin[1] as f64 - ball.y as f64 * scale];
+        let r = ball.radius as f64 * scale;
+        let d = ((px[0] - centre[0]).powi(2) + (px[1] - centre[1]).powi(2)).sqrt();
+        let coverage = (r + 0.5 - d).clamp(0.0, 1.0);
+        let rim = (d - (r - 1.5) + 0.5).clamp(0.0, 1.0);
+        let rgb = [ball.colour & 255, (ball.colour >> 8) & 255, (ball.colour >> 16) & 255];
+        std::array::from_fn(|c| {
+            let shade = rgb[c] as f64 * (1.0 - 0.35 * rim);
+            under[c] + (shade - under[c]) * coverage
+        })
+    }
+
+    /// Balls across the rectangle's edges are clipped to it, and what is left of them inside is
+    /// drawn as if the rectangle went on: a ball across the left edge, one across the top right
+    /// corner, one across the bottom edge, and one far outside. Every pixel of the rectangle is
+    /// within a level of the reference computed pixel by pixel, and the parts inside are there.
+    /// Seen to fail by clipping balls one pixel short of the right and bottom edges (the end of
+    /// `span` in `Placed::new` clamped to `n - 1`): a pixel 172 levels off.
     #[test]
-    fn balls_off_the_rectangle_are_clipped() {
+    fn balls_across_the_edges_are_clipped_and_drawn_to_the_edge() {
         let mut splat = Splat::default();
         let place = Placement { scale: 10.0, origin: [0.0, 20.0] };
+        let plain = |k: usize| palette::BALLS[k] & 0x00FF_FFFF;
         let balls = [
-            BallSprite { x: -0.1, y: 1.0, radius: 0.3, colour: palette::BALLS[1] },
-            BallSprite { x: 2.1, y: 2.1, radius: 0.3, colour: palette::BALLS[2] },
-            BallSprite { x: 1e9, y: -1e9, radius: 0.3, colour: palette::BALLS[3] },
+            // Centre 1 px left of the rectangle, 3 px radius: columns 0–2 of rows 7–12 covered.
+            BallSprite { x: -0.1, y: 1.0, radius: 0.3, colour: plain(1) },
+            // Centre 1 px right of and 1 px above the top-right corner.
+            BallSprite { x: 2.1, y: 2.1, radius: 0.3, colour: plain(2) },
+            // Centre on the bottom edge, 4 px radius.
+            BallSprite { x: 1.0, y: 0.0, radius: 0.4, colour: plain(4) },
+            BallSprite { x: 1e9, y: -1e9, radius: 0.3, colour: plain(3) },
         ];
-        splat.paint(&balls, place, [0, 0, 20, 20], PixelOrder::Rgba);
+        let (w, h) = (20usize, 20usize);
+        splat.paint(&balls, place, [0, 0, w as u32, h as u32], PixelOrder::Rgba);
+        let field = palette::FIELD_RGB.map(|c| (c * 255.0).round());
+        let mut worst = 0.0f64;
+        let mut ball_pixels = [0usize; 4];
+        for y in 0..h {
+            for x in 0..w {
+                let centre = [x as f64 + 0.5, y as f64 + 0.5];
+                let mut want = field;
+                for b in &balls {
+                    want = reference_pixel(want, b, place, centre);
+                }
+                let got = splat.pixels[y * splat.stride + x];
+                assert_eq!(got >> 24, 255, "pixel ({x}, {y}) is not opaque");
+                for (c, want) in want.iter().enumerate() {
+                    worst = worst.max((((got >> (8 * c)) & 255) as f64 - want).abs());
+                }
+                // The pixels each ball alone would touch, by the reference.
+                for (k, b) in balls.iter().enumerate() {
+                    if reference_pixel(field, b, place, centre) != field {
+                        ball_pixels[k] += 1;
+                    }
+                }
+            }
+        }
+        assert!(worst <= 1.0, "a pixel is {worst} levels from the reference");
+        // The parts inside, by the reference: the left ball's right third, a corner of the
+        // top-right one, the bottom one's upper half; nothing of the far one. (Which pixels the
+        // test exercises, not a check of the splat.)
+        assert_eq!(ball_pixels, [10, 3, 30, 0]);
+        // The left ball reaches column 0, the top-right one row 0 and column 19, the bottom one
+        // row 19: the edges are drawn, not left to the field's colour.
+        let at = |x: usize, y: usize| splat.pixels[y * splat.stride + x];
+        let field_px = pack(field.map(|c| c as u32), PixelOrder::Rgba);
+        assert_ne!(at(0, 10), field_px);
+        assert_ne!(at(19, 0), field_px);
+        assert_ne!(at(10, 19), field_px);
     }
 }

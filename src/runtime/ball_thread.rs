@@ -11,10 +11,10 @@ use glam::DVec2;
 use super::message::Message;
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
-use crate::lockstep::{MAX_SUBSTEPS, cap_speed};
 use crate::physics::{
-    Ball, BallKind, IntegratorScratch, MAX_DRAG_STEP, MAX_ORBIT_STEP, NearBall, WallImpulses, attraction_force,
-    attraction_rate_squared, cap_drag_rate, contact_ball_wall, drag_force, drag_rate_bound, integrate, near_force,
+    Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
+    SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
+    contact_ball_wall, integrate, near_force,
 };
 
 /// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
@@ -49,13 +49,26 @@ struct BallState {
 }
 
 /// What a ball thread reuses from cycle to cycle, so that a cycle allocates nothing.
-#[derive(Default)]
 struct CycleScratch {
     integrator: IntegratorScratch,
+    /// The force passes of the parameters' effects, the very ones lockstep runs; built again only
+    /// when the parameters change (their generation moved), as building allocates.
+    forces: Forces,
     /// The other balls, read directly from the table (attraction below TREE_MIN_BALLS).
     others: Vec<BallRecord>,
     /// The near balls of the tree snapshot, copied (attraction from TREE_MIN_BALLS on).
     near: Vec<NearBall>,
+}
+
+impl CycleScratch {
+    fn new(effects: &Effects) -> Self {
+        CycleScratch {
+            integrator: IntegratorScratch::default(),
+            forces: Forces::new(effects),
+            others: Vec::new(),
+            near: Vec::new(),
+        }
+    }
 }
 
 /// A ball adds its attraction cycle counts to the shared counters every this many updates (and
@@ -134,7 +147,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
     // generation means the read lock below returns the parameters written before it.
     let mut generation = shared.params_generation.load(Ordering::Acquire);
-    let mut scratch = CycleScratch::default();
+    let mut scratch = CycleScratch::new(&params.effects);
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
     loop {
@@ -168,13 +181,8 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         let g = shared.params_generation.load(Ordering::Acquire);
         if g != generation {
             generation = g;
-            let integrator = params.integrator;
             params = shared.params.read().clone();
-            // A per-ball integrator change (SetIntegrator) is overridden by a global one only
-            // when the global one changed.
-            if params.integrator == integrator {
-                params.integrator = integrator;
-            }
+            scratch.forces = Forces::new(&params.effects);
         }
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
@@ -294,7 +302,6 @@ fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handl
         }
         Message::Pull(force) => state.pull = force,
         Message::SetMass(mass) => state.ball.mass = mass,
-        Message::SetIntegrator(integrator) => params.integrator = integrator,
         Message::Throw(velocity) => state.ball.velocity = velocity,
         Message::Stop => return Handled::Stop,
         Message::Stall(d) => std::thread::sleep(d),
@@ -305,6 +312,10 @@ fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handl
 
 /// Advances the ball by `dt` seconds in sub-steps of at most `max_step`, so a stall (a dragged
 /// window, a loaded machine) never becomes one giant step. Returns where attraction came from.
+///
+/// Three named steps: the other balls' pull for the cycle ([`gather_others`]), the split judged
+/// by the step policy ([`judge_split`]), and the sub-steps ([`take_substeps`]). The forces are
+/// lockstep's own passes (`physics::Forces`), evaluated on this ball alone.
 fn advance(
     state: &mut BallState,
     dt: f64,
@@ -313,118 +324,162 @@ fn advance(
     shared: &Shared,
     scratch: &mut CycleScratch,
 ) -> AttractionSource {
-    let CycleScratch { integrator: scratch, others, near } = scratch;
-    if dt <= 0.0 {
+    // A NaN dt (from a NaN time scale) takes no step either.
+    if dt.is_nan() || dt <= 0.0 {
         return AttractionSource::Off;
     }
-    let effects = &params.effects;
-    let slot = state.slot;
-    let ball = &mut state.ball;
-    let (mass, diameter) = (ball.mass, ball.diameter);
-    let radius = 0.5 * diameter;
-    let inv_mass = 1.0 / mass;
-    let gravity = effects.gravity.map(|g| g.g).unwrap_or(DVec2::ZERO);
-    let uniform = gravity + state.pull * inv_mass;
-    let drag = effects.drag;
-    let attraction = effects.attraction;
-    // The other balls' pull, frozen for this whole cycle (every sub-step): either taken from the
-    // monitor's latest tree snapshot, once here (from TREE_MIN_BALLS balls on; the field as the
-    // monitor read it at the start of its last pass), or below that from the table read directly
-    // here (each ball as last published). Only this ball's own position moves through the
-    // sub-steps.
-    //
-    // With the tree, the pull is split once per cycle (`BarnesHut::split_at`): the far nodes'
-    // pull is taken at the cycle's start and kept for its sub-steps, and only the near balls
-    // (those of the leaves the walk opened, copied out) are summed exactly at each sub-step. A
-    // tree walk per sub-step would cost n × 500 walks a second at the 2 ms sub-step limit — more
-    // than two cores at 4,096 balls. The far nodes lie beyond twice the distance the ball can
-    // travel in the cycle, so keeping their pull fixed errs about as much as freezing the other
-    // balls does. Because the near balls are copied, the snapshot is held only for the split
-    // (one walk), not for the cycle: a ball preempted in mid-cycle keeps no snapshot from being
-    // rebuilt.
-    others.clear();
-    let mut far = DVec2::ZERO;
-    let mut tree_rate2 = 0.0;
-    let source = match &attraction {
-        None => AttractionSource::Off,
-        Some(att) => {
-            // How far the ball can go this cycle from its speed and the uniform forces (the pull
-            // of the near balls, summed exactly at every sub-step, needs no margin).
-            let travel = ball.velocity.length() * dt + 0.5 * uniform.length() * dt * dt;
-            // Lock-free: never waits for the monitor (see `attraction_tree.rs`). The guard is a
-            // temporary, dropped at the end of this statement. A snapshot built with other
-            // parameters (just changed) is not used: the table is read directly this cycle.
-            let split = shared
-                .attraction_tree
-                .load()
-                .as_deref()
-                .filter(|t| t.attraction() == att)
-                .map(|t| t.split_on(slot, ball.position, mass, radius, 2.0 * travel, near));
-            match split {
-                Some((f, w2)) => {
-                    (far, tree_rate2) = (f, w2);
-                    AttractionSource::Tree
-                }
-                None => {
-                    // Acquire: pairs with the runtime's Release store after it wrote a new
-                    // slot's record.
-                    let high = shared.high_water.load(Ordering::Acquire);
-                    shared.table.read_all(high, others);
-                    others.retain(|r| r.slot != slot);
-                    AttractionSource::Direct
-                }
-            }
-        }
-    };
-    let velocity_dependent = drag.is_some();
-    // The other balls' pull on this one now (for the drag's stiffness below).
-    let pull_of_others = |x: DVec2| match (&attraction, source) {
-        (Some(att), AttractionSource::Tree) => far + near_force(near, x, mass, radius, att),
-        (Some(att), _) => others.iter().fold(DVec2::ZERO, |f, o| {
-            let ob = &o.ball;
-            f + attraction_force(x, mass, radius, ob.position, ob.mass, ob.radius(), att)
-        }),
-        (None, _) => DVec2::ZERO,
-    };
-    // Sub-steps: at most `max_step` long, and short enough that drag is not stiff — at the speed
-    // the ball has now, or at the terminal speed the other forces drive it to within the cycle
-    // (`drag_rate_bound`; see the lockstep engine's split, which judges it the same way).
-    let drag_rate_now = drag.map_or(0.0, |d| {
-        let a = uniform + pull_of_others(ball.position) * inv_mass;
-        drag_rate_bound(ball.velocity, a, diameter, mass, &d)
-    });
-    let stiff = drag_rate_now * dt / MAX_DRAG_STEP;
-    let orbit = match (&attraction, source) {
-        (Some(_), AttractionSource::Tree) => tree_rate2.sqrt() * dt / MAX_ORBIT_STEP,
-        (Some(att), _) => {
-            let w2 = others.iter().fold(0.0f64, |w, o| {
-                let ob = &o.ball;
-                w.max(attraction_rate_squared(ball.position, mass, radius, ob.position, ob.mass, ob.radius(), att))
-            });
-            w2.sqrt() * dt / MAX_ORBIT_STEP
-        }
-        (None, _) => 0.0,
-    };
-    let steps = (dt / max_step).max(stiff).max(orbit).ceil().clamp(1.0, MAX_SUBSTEPS as f64);
-    let h = dt / steps;
-    // Drag still too stiff for the shortest sub-step gets the lockstep engine's guard rail: its
-    // rate capped at 1/h (see `Forces::set_drag_rate_limit`).
-    let drag_limit = if drag_rate_now * h > MAX_DRAG_STEP { 1.0 / h } else { f64::INFINITY };
-    if drag_limit.is_finite() {
+    let CycleScratch { integrator, forces, others, near } = scratch;
+    let ball = &state.ball;
+    let body = BallProps { mass: ball.mass, inverse_mass: 1.0 / ball.mass, diameter: ball.diameter };
+    // Gravity and the pull: the ball's uniform acceleration, for the tree split's margin and for
+    // an exact bounce off a wall.
+    let gravity = params.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+    let uniform = gravity + state.pull * body.inverse_mass;
+    let others = gather_others(state, uniform, dt, params, shared, others, near);
+    let sub = judge_split(&state.ball, dt, max_step, forces.on_ball(body, state.pull, &others));
+    // Drag too stiff even for the policy's shortest sub-step gets lockstep's guard rail.
+    forces.set_drag_rate_limit(sub.drag_rate_limit);
+    if sub.drag_limited() {
+        // Relaxed: a statistic (see `Shared::drag_limited`).
         shared.drag_limited.fetch_add(1, Ordering::Relaxed);
     }
-    for _ in 0..steps as u64 {
+    let ball_forces = forces.on_ball(body, state.pull, &others);
+    take_substeps(state, sub, ball_forces, uniform, params, shared, integrator);
+    others.source()
+}
+
+/// The other balls' pull on this one, frozen for a whole cycle (every sub-step): see
+/// [`gather_others`]. Only this ball's own position moves through the sub-steps.
+enum OthersPull<'a> {
+    /// Attraction is off.
+    Off,
+    /// From the monitor's tree snapshot, split once for the cycle: the far nodes' force (N) at the
+    /// cycle's start, the near balls (summed exactly at each sub-step) and the fastest orbit
+    /// rate² there (1/s²).
+    Split { far: DVec2, near: &'a [NearBall], orbit_rate2: f64 },
+    /// Every other ball as last published, read directly from the table, and the attraction's
+    /// parameters (for the orbit rate).
+    Direct { table: &'a [BallRecord], attraction: Attraction },
+}
+
+impl OtherBalls for OthersPull<'_> {
+    #[inline]
+    fn force_at(&self, x: DVec2, mass: f64, radius: f64, att: &Attraction) -> DVec2 {
+        match self {
+            OthersPull::Off => DVec2::ZERO,
+            OthersPull::Split { far, near, .. } => *far + near_force(near, x, mass, radius, att),
+            OthersPull::Direct { table, .. } => table.iter().fold(DVec2::ZERO, |f, o| {
+                let ob = &o.ball;
+                f + attraction_force(x, mass, radius, ob.position, ob.mass, ob.radius(), att)
+            }),
+        }
+    }
+}
+
+impl OthersPull<'_> {
+    fn source(&self) -> AttractionSource {
+        match self {
+            OthersPull::Off => AttractionSource::Off,
+            OthersPull::Split { .. } => AttractionSource::Tree,
+            OthersPull::Direct { .. } => AttractionSource::Direct,
+        }
+    }
+
+    /// The fastest orbit rate² (1/s²) of a ball of `mass` and `radius` at `x` with any of them.
+    fn orbit_rate2(&self, x: DVec2, mass: f64, radius: f64) -> f64 {
+        match self {
+            OthersPull::Off => 0.0,
+            OthersPull::Split { orbit_rate2, .. } => *orbit_rate2,
+            OthersPull::Direct { table, attraction } => table.iter().fold(0.0f64, |w, o| {
+                let ob = &o.ball;
+                w.max(attraction_rate_squared(x, mass, radius, ob.position, ob.mass, ob.radius(), attraction))
+            }),
+        }
+    }
+}
+
+/// The other balls' pull for this cycle: either taken from the monitor's latest tree snapshot,
+/// once here (from TREE_MIN_BALLS balls on; the field as the monitor read it at the start of its
+/// last pass), or below that from the table read directly here into `table` (each ball as last
+/// published).
+///
+/// With the tree, the pull is split once per cycle (`BarnesHut::split_at`): the far nodes' pull
+/// is taken at the cycle's start and kept for its sub-steps, and only the near balls (those of
+/// the leaves the walk opened, copied to `near`) are summed exactly at each sub-step. A tree walk
+/// per sub-step would cost n × 500 walks a second at the 2 ms sub-step limit — more than two
+/// cores at 4,096 balls. The far nodes lie beyond twice the distance the ball can travel in the
+/// cycle, so keeping their pull fixed errs about as much as freezing the other balls does.
+/// Because the near balls are copied, the snapshot is held only for the split (one walk), not for
+/// the cycle: a ball preempted in mid-cycle keeps no snapshot from being rebuilt.
+fn gather_others<'a>(
+    state: &BallState,
+    uniform: DVec2,
+    dt: f64,
+    params: &Params,
+    shared: &Shared,
+    table: &'a mut Vec<BallRecord>,
+    near: &'a mut Vec<NearBall>,
+) -> OthersPull<'a> {
+    table.clear();
+    let Some(att) = &params.effects.attraction else { return OthersPull::Off };
+    let ball = &state.ball;
+    // How far the ball can go this cycle from its speed and the uniform forces (the pull of the
+    // near balls, summed exactly at every sub-step, needs no margin).
+    let travel = ball.velocity.length() * dt + 0.5 * uniform.length() * dt * dt;
+    // Lock-free: never waits for the monitor (see `attraction_tree.rs`). The guard is a
+    // temporary, dropped at the end of this statement. A snapshot built with other parameters
+    // (just changed) is not used: the table is read directly this cycle.
+    let split = shared
+        .attraction_tree
+        .load()
+        .as_deref()
+        .filter(|t| t.attraction() == att)
+        .map(|t| t.split_on(state.slot, ball.position, ball.mass, ball.radius(), 2.0 * travel, near));
+    match split {
+        Some((far, orbit_rate2)) => OthersPull::Split { far, near, orbit_rate2 },
+        None => {
+            // Acquire: pairs with the runtime's Release store after it wrote a new slot's record.
+            let high = shared.high_water.load(Ordering::Acquire);
+            shared.table.read_all(high, table);
+            table.retain(|r| r.slot != state.slot);
+            OthersPull::Direct { table, attraction: *att }
+        }
+    }
+}
+
+/// How this cycle's `dt` is split: by the step policy lockstep uses (see `StepPolicy`), with
+/// sub-steps at most `max_step` long, judged by the rates at the ball's state now: drag at the
+/// speed now or at the terminal speed the other forces drive the ball to within the cycle
+/// (`BallForces::drag_rate`), and the fastest orbit with another ball. Travel is not bounded
+/// here: contacts are the monitor's, judged at its own period.
+fn judge_split(ball: &Ball, dt: f64, max_step: f64, forces: BallForces<'_, &OthersPull<'_>>) -> SubSteps {
+    let rates = SpanRates {
+        travel: 0.0,
+        drag: forces.drag_rate(ball.position, ball.velocity),
+        orbit: forces.others().orbit_rate2(ball.position, ball.mass, ball.radius()).sqrt(),
+    };
+    StepPolicy::new(dt).with_max_step(max_step).split(dt, &rates)
+}
+
+/// `sub.count` sub-steps of `sub.h`, each integrated through the force passes and followed by the
+/// walls (`uniform`: the ball's uniform acceleration) and lockstep's speed guard rail.
+fn take_substeps(
+    state: &mut BallState,
+    sub: SubSteps,
+    forces: BallForces<'_, &OthersPull<'_>>,
+    uniform: DVec2,
+    params: &Params,
+    shared: &Shared,
+    scratch: &mut IntegratorScratch,
+) {
+    let velocity_dependent = forces.depends_on_velocity();
+    let ball = &mut state.ball;
+    let (radius, mass) = (ball.radius(), ball.mass);
+    for _ in 0..sub.count {
         let mut x = [ball.position];
         let mut v = [ball.velocity];
-        integrate(params.integrator, h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
-            let mut acc = uniform;
-            if let Some(d) = &drag {
-                acc += cap_drag_rate(drag_force(v[0], diameter, d) * inv_mass, v[0], drag_limit);
-            }
-            if attraction.is_some() {
-                acc += pull_of_others(x[0]) * inv_mass;
-            }
-            a[0] = acc;
+        integrate(params.integrator, sub.h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
+            a[0] = forces.acceleration(x[0], v[0]);
         });
         ball.position = x[0];
         ball.velocity = v[0];
@@ -439,10 +494,10 @@ fn advance(
         );
         // Lockstep's speed guard rail, for fields faster than the shortest sub-step resolves.
         if cap_speed(&mut ball.velocity) {
+            // Relaxed: a statistic (see `Shared::speed_limited`).
             shared.speed_limited.fetch_add(1, Ordering::Relaxed);
         }
     }
-    source
 }
 
 /// Ball threads (all but the key ball) are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not

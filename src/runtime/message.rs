@@ -3,8 +3,6 @@
 
 use glam::DVec2;
 
-use crate::physics::Integrator;
-
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Message {
     /// From the collision monitor: add `dv` to the velocity and `dx` to the position. Relative
@@ -15,8 +13,6 @@ pub enum Message {
     Pull(DVec2),
     /// A new mass (kg) for this ball (the panel's key-ball mass slider).
     SetMass(f64),
-    /// A new integrator.
-    SetIntegrator(Integrator),
     /// Grab: set the velocity (only the user's mouse throw does this).
     Throw(DVec2),
     /// Finish the current cycle and exit.
