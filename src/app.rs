@@ -5,9 +5,10 @@
 //! The window is created in `resumed()` and held in an `Arc` so the wgpu surface can be
 //! `'static`. For GL the instance is created with the event loop's display handle (ci-notes.md).
 
+mod keys;
 mod panel;
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -21,7 +22,8 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-pub use panel::{Command, EnergySample, HELP, PANEL_WIDTH, PanelFrame, PanelPainter, Readouts, Settings, run_ui};
+pub use keys::{Action, Arrow, HOTKEYS, Hotkey, help_lines};
+pub use panel::{Command, EnergySample, MOUSE_HELP, PANEL_WIDTH, PanelFrame, PanelPainter, Readouts, Settings, run_ui};
 
 use crate::engine::{self, Engine, EngineKind};
 use crate::physics::{
@@ -60,7 +62,7 @@ pub enum AppError {
     Report { file: PathBuf, cause: std::io::Error },
 }
 
-/// What happened in the window, written at exit with `--report` (the end-to-end test reads it).
+/// What happened in the window, written at exit with `--report` (the end-to-end tests read it).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct AppReport {
     pub scene: String,
@@ -73,6 +75,10 @@ pub struct AppReport {
     pub frames_per_second: f64,
     /// Median time from the start of a frame to the GPU having drawn it (panel included), ms.
     pub frame_ms_median: f64,
+    /// Wall-clock time between two ticks from the first frame on, ms: the cadence the window
+    /// kept, and how late it can be to see a key (an event waits for the frame being drawn).
+    pub tick_gap_ms_median: f64,
+    pub tick_gap_ms_max: f64,
     pub balls_start: usize,
     pub balls_end: usize,
     pub balls_added: u64,
@@ -80,9 +86,80 @@ pub struct AppReport {
     /// The key ball's position at the first and the last sample, m.
     pub key_start: Option<[f64; 2]>,
     pub key_end: Option<[f64; 2]>,
-    /// Key presses acted on (synthetic ones are ignored and not counted).
+    /// Key presses acted on (synthetic ones and the keyboard's repeats are ignored and not
+    /// counted).
     pub key_presses: u64,
+    /// The same, by key (winit's `KeyCode` name: "ArrowLeft", "KeyA", "NumpadAdd", ...).
+    pub keys: BTreeMap<String, u64>,
+    /// Commands carried out, by kind ("AddBall", "Scene", "Pull", "Throw", ...), whatever gave
+    /// them: a key, the mouse or the panel.
+    pub commands: BTreeMap<String, u64>,
+    /// Every command in order, with the state right after it (the first [`MAX_LOG`]).
+    pub log: Vec<CommandRecord>,
+    /// Commands left out of `log` once it was full.
+    pub log_dropped: u64,
+    /// What closed the window: the key ("Escape", "KeyQ"), "exit-after" or "close-requested".
+    pub closed_by: String,
+    /// The state when the window closed.
+    pub end: Option<WindowState>,
+    /// What went wrong: commands the engine refused, ball threads that had panicked (the first
+    /// [`MAX_ERRORS`]).
     pub errors: Vec<String>,
+}
+
+/// The longest [`AppReport::log`]: a command a frame for an hour of slider dragging stays in
+/// memory, and a scripted run is far shorter.
+pub const MAX_LOG: usize = 10_000;
+/// The most [`AppReport::errors`] kept.
+pub const MAX_ERRORS: usize = 100;
+
+/// One command the window carried out, in the report's log.
+#[derive(Clone, Debug, Serialize)]
+pub struct CommandRecord {
+    /// Wall-clock seconds since the window opened, when the command was carried out.
+    pub at: f64,
+    /// What gave it: a key (winit's `KeyCode` name), "mouse-left", "mouse-right" or "panel".
+    pub source: String,
+    /// The command: a [`Command`] as Rust writes it ("AddBall", "Scene(3)", "Engine(Lockstep)"),
+    /// "Pull(Left)" / "Release(Left)" for an arrow going down / up, "Grab", "Throw", "Drop".
+    pub command: String,
+    /// The ball the command was about: the one added, removed, grabbed, thrown or dropped, as
+    /// the engine has it afterwards (as it was taken off, for a removal or a grab).
+    pub ball: Option<Ball>,
+    #[serde(flatten)]
+    pub state: WindowState,
+}
+
+/// The window's state at one instant (after a command, or at the end).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct WindowState {
+    pub engine: String,
+    pub scene: String,
+    /// The engine's simulated clock, s: for the lockstep engine the time of its last step, from
+    /// which a pull set now applies.
+    pub time: f64,
+    pub paused: bool,
+    /// Balls on the field (a grabbed ball is off it until it is thrown).
+    pub balls: usize,
+    /// The effects the engine runs ([`Effects::active_names`]).
+    pub effects: Vec<String>,
+    /// The pull the window asks for, N.
+    pub pull: [f64; 2],
+    pub key_ball: Option<Ball>,
+    pub panel: bool,
+    pub help: bool,
+    pub vectors: bool,
+    pub centre_of_mass: bool,
+    pub traces: bool,
+}
+
+/// What a log record says the command was about.
+enum Subject {
+    None,
+    /// This ball, as it is.
+    Ball(Ball),
+    /// The ball with this id, as the engine has it after the command.
+    Id(BallId),
 }
 
 /// Runs the window until it is closed.
@@ -154,6 +231,9 @@ struct App {
     panel_due: Instant,
     /// Width of the panel as last drawn, pixels.
     panel_width_px: u32,
+    /// The last tick from the first frame on, and the time between such ticks, s.
+    last_tick_wall: Option<Instant>,
+    tick_gaps: Vec<f64>,
 }
 
 /// What a new ball is like in this scene: the first plain ball's mass and size, or 1 kg and 1 m.
@@ -225,13 +305,22 @@ impl App {
             panel_dirty: true,
             panel_due: now,
             panel_width_px: 0,
+            last_tick_wall: None,
+            tick_gaps: Vec::new(),
         })
     }
 
     fn finish(mut self) -> Result<AppReport, AppError> {
-        self.engine.sample(&mut self.balls);
+        if self.report.closed_by.is_empty() {
+            // The event loop ended without being asked to (the display went away).
+            self.report.closed_by = "event-loop".into();
+        }
+        self.report.end = Some(self.state());
         self.shutdown_engine();
+        self.tick_gaps.sort_by(f64::total_cmp);
         let r = &mut self.report;
+        r.tick_gap_ms_median = self.tick_gaps.get(self.tick_gaps.len() / 2).copied().unwrap_or(0.0) * 1e3;
+        r.tick_gap_ms_max = self.tick_gaps.last().copied().unwrap_or(0.0) * 1e3;
         r.seconds = self.started.elapsed().as_secs_f64();
         r.frames_per_second = r.frames as f64 / r.seconds.max(1e-9);
         r.balls_end = self.balls.len();
@@ -249,7 +338,59 @@ impl App {
     fn shutdown_engine(&mut self) {
         for p in self.engine.shutdown().panics {
             log::error!("a ball thread had panicked: {p}");
+            self.report_error(format!("a ball thread had panicked: {p}"));
         }
+    }
+
+    /// Shows `message` in the panel and keeps it for the report.
+    fn report_error(&mut self, message: String) {
+        if self.report.errors.len() < MAX_ERRORS {
+            self.report.errors.push(message.clone());
+        }
+        self.readouts.message = message;
+    }
+
+    /// The window's state now (samples the engine into `balls`).
+    fn state(&mut self) -> WindowState {
+        self.engine.sample(&mut self.balls);
+        WindowState {
+            engine: self.engine.kind().name().into(),
+            scene: self.scene.name.clone(),
+            time: self.engine.time(),
+            paused: self.engine.is_paused(),
+            balls: self.balls.len(),
+            effects: self.engine.effects().active_names().into_iter().map(String::from).collect(),
+            pull: self.pull_force().to_array(),
+            key_ball: self.balls.iter().find(|b| b.kind == BallKind::Key).copied(),
+            panel: self.show_panel,
+            help: self.show_help,
+            vectors: self.settings.vectors,
+            centre_of_mass: self.settings.centre_of_mass,
+            traces: self.settings.traces,
+        }
+    }
+
+    /// Counts a command and logs it with the state after it.
+    fn record(&mut self, source: &str, command: String, subject: Subject) {
+        let kind = command.split('(').next().unwrap_or_default().to_string();
+        *self.report.commands.entry(kind).or_default() += 1;
+        // Numbered from 1, and written once the state is taken: the end-to-end tests wait for
+        // the line of the command they gave, and bound its instants by the line's.
+        let n = self.report.log.len() as u64 + self.report.log_dropped + 1;
+        if self.report.log.len() >= MAX_LOG {
+            self.report.log_dropped += 1;
+            log::info!("command {n}: {command} from {source}");
+            return;
+        }
+        let state = self.state();
+        let ball = match subject {
+            Subject::None => None,
+            Subject::Ball(b) => Some(b),
+            Subject::Id(id) => self.balls.iter().find(|b| b.id == id).copied(),
+        };
+        let at = self.started.elapsed().as_secs_f64();
+        log::info!("command {n}: {command} from {source}");
+        self.report.log.push(CommandRecord { at, source: source.into(), command, ball, state });
     }
 
     fn init_graphics(&mut self, event_loop: &ActiveEventLoop) -> Result<Graphics, String> {
@@ -312,9 +453,10 @@ impl App {
 
     // ---- commands -------------------------------------------------------------------------
 
+    /// The pull of the arrows held: one arrow's strength whichever of them are held.
     fn pull_force(&self) -> DVec2 {
-        let [l, r, d, u] = self.arrows.map(|b| b as i32 as f64);
-        DVec2::new(r - l, u - d).normalize_or_zero() * self.settings.pull
+        let held = Arrow::ALL.iter().filter(|a| self.arrows[**a as usize]);
+        held.map(|a| a.direction()).sum::<DVec2>().normalize_or_zero() * self.settings.pull
     }
 
     fn update_pull(&mut self) {
@@ -355,7 +497,7 @@ impl App {
                 self.report.engine = kind.name().into();
             }
             Err(e) => {
-                self.readouts.message = format!("cannot start the {kind} engine: {e}");
+                self.report_error(format!("cannot start the {kind} engine: {e}"));
                 return;
             }
         }
@@ -373,20 +515,31 @@ impl App {
         self.update_pull();
     }
 
+    /// Carries out a command from the panel.
     fn apply(&mut self, command: Command, event_loop: &ActiveEventLoop) {
+        self.carry_out(command, "panel", event_loop);
+    }
+
+    /// Carries out a command from `source` (see [`CommandRecord::source`]) and logs it.
+    fn carry_out(&mut self, command: Command, source: &str, event_loop: &ActiveEventLoop) {
         self.readouts.message.clear();
         self.panel_dirty = true;
+        let mut subject = Subject::None;
         match command {
             Command::AddBall => {
                 let (m, d) = new_ball_shape(&self.scene);
                 match self.engine.add_ball_at_free_spot(m, d) {
-                    Ok(_) => self.report.balls_added += 1,
-                    Err(e) => self.readouts.message = e.to_string(),
+                    Ok(id) => {
+                        self.report.balls_added += 1;
+                        subject = Subject::Id(id);
+                    }
+                    Err(e) => self.report_error(e.to_string()),
                 }
             }
             Command::RemoveLast => {
-                if self.engine.remove_last().is_some() {
+                if let Some(ball) = self.engine.remove_last() {
                     self.report.balls_removed += 1;
+                    subject = Subject::Ball(ball);
                 }
             }
             Command::TogglePause => {
@@ -431,7 +584,10 @@ impl App {
                 self.settings.traces = !self.settings.traces;
                 self.traces.clear();
             }
-            Command::Quit => event_loop.exit(),
+            Command::Quit => {
+                self.report.closed_by = source.into();
+                event_loop.exit();
+            }
             Command::SetPull(p) => {
                 self.settings.pull = p.max(0.0);
                 self.update_pull();
@@ -441,7 +597,7 @@ impl App {
                 if let Some(key) = self.engine.key_ball()
                     && let Err(e) = self.engine.set_mass(key, m)
                 {
-                    self.readouts.message = e.to_string();
+                    self.report_error(e.to_string());
                 }
             }
             Command::SetRestitution(e) => {
@@ -453,6 +609,7 @@ impl App {
                 self.engine.set_time_scale(t);
             }
         }
+        self.record(source, format!("{command:?}"), subject);
     }
 
     fn toggle_effect(&mut self, which: fn(&mut Settings) -> &mut bool) {
@@ -462,56 +619,29 @@ impl App {
         self.engine.set_effects(effects);
     }
 
+    /// A key went down (`pressed`) or up; `repeat`: the keyboard's own repeat of a held key.
+    /// What it does comes from [`HOTKEYS`], as the help lists it.
     fn key(&mut self, code: KeyCode, pressed: bool, repeat: bool, event_loop: &ActiveEventLoop) {
-        let arrow = match code {
-            KeyCode::ArrowLeft => Some(0),
-            KeyCode::ArrowRight => Some(1),
-            KeyCode::ArrowDown => Some(2),
-            KeyCode::ArrowUp => Some(3),
-            _ => None,
-        };
-        if let Some(k) = arrow {
-            if self.arrows[k] != pressed {
-                self.arrows[k] = pressed;
-                self.update_pull();
-            }
-            if pressed && !repeat {
-                self.report.key_presses += 1;
-            }
-            return;
+        let Some(action) = keys::action(code) else { return };
+        let source = format!("{code:?}");
+        if pressed && !repeat {
+            self.report.key_presses += 1;
+            *self.report.keys.entry(source.clone()).or_default() += 1;
         }
-        if !pressed || repeat {
-            return;
+        match action {
+            Action::Pull(arrow) => {
+                let k = arrow as usize;
+                if self.arrows[k] != pressed {
+                    self.arrows[k] = pressed;
+                    self.update_pull();
+                    let what = if pressed { "Pull" } else { "Release" };
+                    self.record(&source, format!("{what}({arrow:?})"), Subject::None);
+                }
+            }
+            _ if !pressed || repeat => {}
+            Action::Do(command) => self.carry_out(command, &source, event_loop),
+            Action::NextEngine => self.carry_out(Command::Engine(self.engine.kind().next()), &source, event_loop),
         }
-        let command = match code {
-            KeyCode::KeyA | KeyCode::Equal | KeyCode::NumpadAdd => Command::AddBall,
-            KeyCode::Backspace | KeyCode::Delete | KeyCode::Minus | KeyCode::NumpadSubtract => Command::RemoveLast,
-            KeyCode::Space | KeyCode::KeyP => Command::TogglePause,
-            KeyCode::KeyS | KeyCode::Period => Command::Step,
-            KeyCode::KeyR => Command::Reset,
-            KeyCode::KeyG => Command::ToggleGravity,
-            KeyCode::KeyD => Command::ToggleDrag,
-            KeyCode::KeyN => Command::ToggleAttraction,
-            KeyCode::KeyC => Command::ToggleCollisions,
-            KeyCode::KeyE => Command::Engine(self.engine.kind().next()),
-            KeyCode::KeyV => Command::ToggleVectors,
-            KeyCode::KeyM => Command::ToggleCentreOfMass,
-            KeyCode::KeyT => Command::ToggleTraces,
-            KeyCode::Tab => Command::TogglePanel,
-            KeyCode::KeyH | KeyCode::F1 => Command::ToggleHelp,
-            KeyCode::Escape | KeyCode::KeyQ => Command::Quit,
-            KeyCode::Digit1 => Command::Scene(0),
-            KeyCode::Digit2 => Command::Scene(1),
-            KeyCode::Digit3 => Command::Scene(2),
-            KeyCode::Digit4 => Command::Scene(3),
-            KeyCode::Digit5 => Command::Scene(4),
-            KeyCode::Digit6 => Command::Scene(5),
-            KeyCode::Digit7 => Command::Scene(6),
-            KeyCode::Digit8 => Command::Scene(7),
-            _ => return,
-        };
-        self.report.key_presses += 1;
-        self.apply(command, event_loop);
     }
 
     // ---- mouse ----------------------------------------------------------------------------
@@ -529,39 +659,50 @@ impl App {
                 // The topmost ball under the cursor, else a new ball here.
                 let hit = self.balls.iter().rev().find(|b| b.position.distance(p) <= b.radius().max(0.3)).copied();
                 match hit {
-                    Some(b) => {
-                        if let Ok(ball) = self.engine.remove_ball(b.id) {
+                    Some(b) => match self.engine.remove_ball(b.id) {
+                        Ok(ball) => {
                             let mut trail = VecDeque::new();
                             trail.push_back((Instant::now(), p));
                             self.grab = Some(Grab { ball, trail });
+                            self.record("mouse-left", "Grab".into(), Subject::Ball(ball));
                         }
-                    }
-                    None => self.drop_ball_at(p),
+                        Err(e) => self.report_error(e.to_string()),
+                    },
+                    None => self.drop_ball_at(p, "mouse-left"),
                 }
             }
-            (MouseButton::Right, true) if inside => self.drop_ball_at(p),
+            (MouseButton::Right, true) if inside => self.drop_ball_at(p, "mouse-right"),
             (MouseButton::Left, false) => {
                 if let Some(grab) = self.grab.take() {
                     let v = throw_velocity(&grab.trail);
                     let ball = Ball { position: p, velocity: v, ..grab.ball };
-                    if let Err(e) = self.engine.put_back(ball) {
-                        self.readouts.message = e.to_string();
-                    }
+                    // Back with its own id: the thrown ball is the one that was grabbed.
+                    let subject = match self.engine.put_back(ball) {
+                        Ok(id) => Subject::Id(id),
+                        Err(e) => {
+                            self.report_error(e.to_string());
+                            Subject::None
+                        }
+                    };
                     if ball.kind == BallKind::Key {
                         self.update_pull();
                     }
+                    self.record("mouse-left", "Throw".into(), subject);
                 }
             }
             _ => {}
         }
     }
 
-    fn drop_ball_at(&mut self, p: DVec2) {
+    fn drop_ball_at(&mut self, p: DVec2, source: &str) {
         let (mass, diameter) = new_ball_shape(&self.scene);
         let ball = Ball { id: BallId(0), kind: BallKind::Ball, position: p, velocity: DVec2::ZERO, mass, diameter };
         match self.engine.add_ball(ball) {
-            Ok(_) => self.report.balls_added += 1,
-            Err(e) => self.readouts.message = e.to_string(),
+            Ok(id) => {
+                self.report.balls_added += 1;
+                self.record(source, "Drop".into(), Subject::Id(id));
+            }
+            Err(e) => self.report_error(e.to_string()),
         }
     }
 
@@ -569,6 +710,12 @@ impl App {
 
     fn tick(&mut self) {
         let now = Instant::now();
+        if self.report.frames > 0 {
+            if let Some(last) = self.last_tick_wall {
+                self.tick_gaps.push((now - last).as_secs_f64());
+            }
+            self.last_tick_wall = Some(now);
+        }
         self.engine.tick(now - self.last_tick);
         self.last_tick = now;
         self.engine.sample(&mut self.balls);
@@ -689,8 +836,13 @@ impl App {
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) {
         let Some(mut gfx) = self.gfx.take() else { return };
+        let first = self.report.frames == 0;
         self.draw(&mut gfx, event_loop);
         self.gfx = Some(gfx);
+        if first && self.report.frames == 1 {
+            // The end-to-end tests wait for this line before they type.
+            log::info!("first frame drawn");
+        }
     }
 
     /// One frame: the surface's next texture, the field and the panel drawn into it, presented,
@@ -963,9 +1115,19 @@ impl ApplicationHandler for App {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         if let Some(gfx) = &mut self.gfx {
-            // egui asks for a repaint on nearly every event (RedrawRequested included, which
-            // would loop): the 15 ms tick redraws anyway, so its answer is not needed.
-            let _ = gfx.egui_state.on_window_event(&gfx.window, &event);
+            // Keys go to the game unless a text field has focus (typing a slider's value): a
+            // hotkey then reaches egui only, and otherwise the game only. egui must not see
+            // them meanwhile: its Tab would focus a widget, which then takes every key (the
+            // game's keys all stopped after Tab showed the panel), and a focused slider would
+            // move with the arrows that pull the key ball.
+            let typing = self.egui_ctx.text_edit_focused();
+            let hotkey = matches!(&event, WindowEvent::KeyboardInput { event, .. }
+                if matches!(event.physical_key, PhysicalKey::Code(c) if keys::action(c).is_some()));
+            if typing || !hotkey {
+                // egui asks for a repaint on nearly every event (RedrawRequested included, which
+                // would loop): the 15 ms tick redraws anyway, so its answer is not needed.
+                let _ = gfx.egui_state.on_window_event(&gfx.window, &event);
+            }
             // Pointer activity over the panel (or anywhere while egui holds the pointer, as when
             // a slider is dragged) and typing into it: the panel is drawn anew next frame.
             let width = gfx.window.inner_size().width as f64;
@@ -983,16 +1145,19 @@ impl ApplicationHandler for App {
                 _ if self.egui_ctx.egui_wants_pointer_input() => self.panel_dirty = true,
                 _ => {}
             }
-            // Keys go to the game unless a text field has focus; the mouse unless it is over egui.
+            // The mouse goes to the game unless it is over egui.
             let egui_pointer = self.egui_ctx.is_pointer_over_egui() || self.egui_ctx.egui_wants_pointer_input();
             match &event {
                 WindowEvent::MouseInput { .. } if egui_pointer && self.grab.is_none() => return,
-                WindowEvent::KeyboardInput { .. } if self.egui_ctx.egui_wants_keyboard_input() => return,
+                WindowEvent::KeyboardInput { .. } if typing => return,
                 _ => {}
             }
         }
         match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::CloseRequested => {
+                self.report.closed_by = "close-requested".into();
+                event_loop.exit();
+            }
             WindowEvent::Resized(size) => {
                 if let Some(gfx) = &mut self.gfx
                     && size.width > 0
@@ -1014,6 +1179,8 @@ impl ApplicationHandler for App {
                     self.key(code, event.state == ElementState::Pressed, event.repeat, event_loop);
                 }
             }
+            // The end-to-end tests wait for this line before they type.
+            WindowEvent::Focused(true) => log::info!("the window has the keyboard focus"),
             WindowEvent::Focused(false) => {
                 // Keys released while we are not looking would pull forever.
                 self.arrows = [false; 4];
@@ -1032,6 +1199,7 @@ impl ApplicationHandler for App {
         if let Some(limit) = self.options.exit_after
             && now - self.started >= limit
         {
+            self.report.closed_by = "exit-after".into();
             event_loop.exit();
             return;
         }
@@ -1062,14 +1230,5 @@ mod tests {
         assert_eq!(throw_velocity(&trail), DVec2::ZERO);
         trail.push_back((t0 + Duration::from_millis(100), DVec2::new(2.0, 1.0)));
         assert!((throw_velocity(&trail) - DVec2::new(10.0, 0.0)).length() < 1e-9);
-    }
-
-    #[test]
-    fn every_hotkey_is_listed_once() {
-        let keys: Vec<&str> = HELP.iter().map(|(k, _)| *k).collect();
-        let mut sorted = keys.clone();
-        sorted.sort();
-        sorted.dedup();
-        assert_eq!(sorted.len(), keys.len());
     }
 }

@@ -37,23 +37,10 @@ pub enum Command {
     SetTimeScale(f64),
 }
 
-/// The hotkeys, as the help overlay lists them.
-pub const HELP: &[(&str, &str)] = &[
-    ("← ↑ → ↓", "pull the key ball (hold; keys combine)"),
-    ("A", "add a ball"),
-    ("Backspace / Delete", "remove the last ball"),
-    ("Space / P", "pause / resume"),
-    ("S", "single step (while paused)"),
-    ("R", "reset the scene"),
-    ("G / D / N / C", "gravity / drag / attraction / collisions"),
-    ("1 – 8", "switch scene"),
-    ("E", "switch engine (threaded / lockstep)"),
-    ("V / M / T", "velocity vectors / centre of mass / traces"),
-    ("Tab", "show / hide the panel"),
-    ("H / F1", "this help"),
-    ("Esc / Q", "quit"),
+/// The mouse's lines of the help overlay (the keys' come from [`super::keys::HOTKEYS`]).
+pub const MOUSE_HELP: &[(&str, &str)] = &[
     ("mouse: drag a ball", "grab it and throw it"),
-    ("mouse: click elsewhere", "drop a new ball there"),
+    ("mouse: click elsewhere", "drop a new ball there (right button: anywhere)"),
 ];
 
 /// Width of the panel, points.
@@ -382,9 +369,10 @@ fn plot(ui: &mut egui::Ui, history: &VecDeque<EnergySample>) {
 pub fn help(ctx: &egui::Context, open: &mut bool) {
     egui::Window::new("help — keys and mouse").open(open).collapsible(false).resizable(false).show(ctx, |ui| {
         egui::Grid::new("help").num_columns(2).spacing([16.0, 4.0]).show(ui, |ui| {
-            for (k, what) in HELP {
-                ui.label(RichText::new(*k).monospace().strong());
-                ui.label(*what);
+            let mouse = MOUSE_HELP.iter().map(|&(k, what)| (k.to_string(), what));
+            for (k, what) in super::keys::help_lines().chain(mouse) {
+                ui.label(RichText::new(k).monospace().strong());
+                ui.label(what);
                 ui.end_row();
             }
         });
