@@ -13,6 +13,7 @@ mod effects;
 mod field;
 mod forces;
 mod integrator;
+mod sweep;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
@@ -35,3 +36,4 @@ pub use effects::{
 pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BodyProps, Forces, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
+pub use sweep::{free_motion, impact_before_end, swept_circle, wall_impact_before_end};
