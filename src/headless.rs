@@ -202,8 +202,9 @@ pub(crate) fn finish_threaded(
     cpu: ProcessTime,
     clock: Instant,
 ) -> Result<RunReport, HeadlessError> {
-    runtime.pause();
-    std::thread::sleep(scene.ball_cycle_duration() * 3);
+    if !runtime.settle(Duration::from_secs(5)) {
+        log::warn!("the threaded run's balls did not all catch up within 5 s: the end state mixes instants");
+    }
     let wall_seconds = clock.elapsed().as_secs_f64();
     let cpu_seconds = cpu.elapsed().as_secs_f64();
     let stats = runtime.stats();
@@ -222,7 +223,8 @@ pub(crate) fn finish_threaded(
         integrator: params.integrator.name().into(),
         dt: scene.ball_cycle,
         steps: 0,
-        simulated_seconds: wall_seconds * params.time_scale,
+        // Less the time the runtime's clock dropped (a stalled process is not simulated).
+        simulated_seconds: (wall_seconds - stats.clock_dropped_seconds).max(0.0) * params.time_scale,
         wall_seconds,
         steps_per_second: stats.ball_rate_median,
         balls: bodies.len(),

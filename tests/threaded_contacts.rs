@@ -97,3 +97,36 @@ fn small_fast_balls_bounce_at_every_closing_speed() {
     assert!(messages.iter().all(|&m| m == (1, 1)), "one message each: {messages:?}");
     assert_eq!(stats.messages_dropped, 0);
 }
+
+#[test]
+#[ignore]
+fn probe_stalled_ball_in_a_stack() {
+    let _serial = serial();
+    let balls: Vec<Ball> = (0..5).map(|k| ball(k, DVec2::new(5.0, 0.5 + k as f64), DVec2::ZERO, 1.0, 1.0)).collect();
+    let s = scene(
+        "name = \"stack\"\n[field]\nwidth = 10.0\nheight = 10.0\n[effects]\ncollisions = {}\ngravity = {}\n",
+        balls,
+    );
+    let energy = |r: &[BallRecord]| {
+        r.iter()
+            .map(|r| 0.5 * r.ball.mass * r.ball.velocity.length_squared() + r.ball.mass * 9.81 * r.ball.position.y)
+            .sum::<f64>()
+    };
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let before = settle(&rt);
+    rt.resume();
+    let ids = rt.ball_ids();
+    rt.inject_stall(ids[2], Duration::from_millis(300)).unwrap();
+    std::thread::sleep(Duration::from_millis(150));
+    let mid = rt.snapshot();
+    std::thread::sleep(Duration::from_millis(400));
+    let after = settle(&rt);
+    for r in [&before, &after] {
+        let ys: Vec<String> = r.iter().map(|r| format!("{:.6}/{:.2e}", r.ball.position.y, r.ball.velocity.y)).collect();
+        eprintln!("{ys:?} E {}", energy(r));
+    }
+    let ys: Vec<String> = mid.iter().map(|r| format!("{:.6} t{} a{}", r.ball.position.y, r.time, r.applied)).collect();
+    eprintln!("mid {ys:?}");
+    eprintln!("{:?}", rt.stats());
+}

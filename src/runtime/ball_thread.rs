@@ -221,13 +221,14 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
             state.flush_counts(&shared);
-            // Messages still land while paused (and the monitor sees them applied), each as at
-            // its stamp: the clock stands, so none would come due.
-            let applied = state.applied;
-            while let Some(m) = state.held.pop_front() {
-                state.apply(&m, &params);
-            }
-            if received || state.applied != applied {
+            // The monitor judges nothing while paused, so the horizon stands: every ball catches
+            // up to it, applying each response it holds at its instant, and stops there. The
+            // paused table is then one instant for every ball, with every message applied (the
+            // monitor sees them applied). That is at most a horizon of simulated time after the
+            // pause was asked for.
+            let (from, applied) = (state.time, state.applied);
+            catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
+            if received || state.applied != applied || state.time != from {
                 state.publish(&shared, &params);
             }
             continue;
@@ -256,7 +257,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
 /// would put the ball at most this fraction of its radius off the path it will have (its velocity
 /// change times the time it comes early): resting contacts, mostly, whose small impulse
 /// is not worth splitting the cycle for.
-const EARLY: f64 = 1e-3;
+const EARLY: f64 = 1e-9;
 
 /// Integrates the ball from its state's instant to `target` (runtime clock), applying each held
 /// contact response on the way at the instant it is due (its `apply_at`; already due ones at
@@ -283,6 +284,9 @@ fn catch_up(
                 source = advance(state, lead, max_step, params, shared, scratch);
                 state.time = m.apply_at;
             }
+        } else if m.apply_at < state.time {
+            // Relaxed: a statistic.
+            shared.responses_late.fetch_add(1, Ordering::Relaxed);
         }
         state.held.pop_front();
         state.apply(&m, params);

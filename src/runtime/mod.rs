@@ -110,6 +110,12 @@ pub struct RuntimeStats {
     /// horizon short of the clock.
     pub clock_dropped_seconds: f64,
     pub horizon_waits: u64,
+    /// The largest distance between where the monitor judged a ball to be at the end of a span
+    /// and where the ball's next record put it then, m (its own integration of drag, attraction
+    /// and its step sizes against the monitor's), over the run.
+    pub judged_drift_max: f64,
+    /// Contact responses applied after the instant they were for (see `Shared::responses_late`).
+    pub responses_late: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
     /// The ball threads' guard rails, as in lockstep: speeds capped at `MAX_SPEED`, and cycles
@@ -427,6 +433,21 @@ impl Runtime {
         self.shared.paused.store(false, Ordering::Relaxed);
     }
 
+    /// Pauses and waits (up to `timeout`) until every ball has caught up to the monitor's
+    /// horizon with every contact message applied: the table is then one instant for all balls.
+    /// Returns whether that happened in time (a starved machine may take a while).
+    pub fn settle(&self, timeout: Duration) -> bool {
+        self.pause();
+        wait_until(timeout, || {
+            // Acquire: see `Shared::horizon` (nothing rides on it here but the value).
+            let horizon = self.shared.horizon.load(Ordering::Acquire);
+            let records = self.snapshot();
+            let sent = self.shared.contact_messages_sent.load(Ordering::Relaxed);
+            let applied = self.registry.lock().retired.applied + records.iter().map(|r| r.applied).sum::<u64>();
+            sent == applied && records.iter().all(|r| r.time == horizon)
+        })
+    }
+
     pub fn is_paused(&self) -> bool {
         self.shared.paused.load(Ordering::Relaxed)
     }
@@ -514,6 +535,8 @@ impl Runtime {
             solves_unconverged: self.shared.solves_unconverged.load(Ordering::Relaxed),
             clock_dropped_seconds: self.shared.clock_dropped_ns.load(Ordering::Relaxed) as f64 * 1e-9,
             horizon_waits: self.shared.horizon_waits.load(Ordering::Relaxed),
+            judged_drift_max: f64::from_bits(self.shared.judged_drift_max.load(Ordering::Relaxed)),
+            responses_late: self.shared.responses_late.load(Ordering::Relaxed),
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
             speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),
             drag_limited: self.shared.drag_limited.load(Ordering::Relaxed),

@@ -46,8 +46,10 @@ use super::attraction_tree::TreePublisher;
 use super::message::{Contact, Message, clock_seconds};
 use super::shared::Shared;
 use super::table::BallRecord;
+use crate::lockstep::MAX_SUBSTEPS;
 use crate::physics::{
-    AttractionMethod, BallId, BroadPhase, Integrator, TREE_MIN_BALLS, WallImpulses, free_motion, swept_circle,
+    AttractionMethod, Ball, BallId, BroadPhase, Drag, Integrator, IntegratorScratch, TREE_MIN_BALLS, WallImpulses,
+    drag_force, integrate, swept_circle,
 };
 use stand_in::{BallResponse, ContactParams, ContactSolver, SolverBall};
 
@@ -63,8 +65,11 @@ pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Sender<Message>>>>>;
 pub(crate) const HORIZON_PERIODS: u32 = 4;
 
 /// Passes more than this many periods apart drop the time beyond one period (see the module
-/// comment).
-pub(crate) const MAX_ADVANCE: u32 = 3;
+/// comment). A pass that is late by less judges its whole span in one solve, as a lockstep
+/// step that long would: a binary impact is exact at any span, and under gravity a resting
+/// ball sinks `g·span²/2` into its support before the solver lifts it (2 mm at 20 ms). A monitor
+/// preempted for a few milliseconds on a busy machine so costs no simulated time.
+pub(crate) const MAX_ADVANCE: u32 = 20;
 
 /// A response smaller than this (relative to the ball's radius, in velocity·span and shift) is
 /// not worth a message: the ball is untouched.
@@ -172,6 +177,12 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
                     start: judged,
                     end,
                     time_scale: params.time_scale,
+                    motion: Motion {
+                        integrator: params.integrator,
+                        max_step: shared.config.max_step,
+                        drag: params.effects.drag.as_ref(),
+                        time_scale: params.time_scale,
+                    },
                     params: ContactParams {
                         restitution: collisions.restitution,
                         field: params.field,
@@ -214,11 +225,12 @@ fn resting_drift(integrator: Integrator) -> f64 {
 }
 
 /// What one pass solves over.
-struct PassSetting {
+struct PassSetting<'a> {
     /// The span the pass judges (runtime clock, ns).
     start: u64,
     end: u64,
     time_scale: f64,
+    motion: Motion<'a>,
     params: ContactParams,
 }
 
@@ -246,34 +258,92 @@ impl InFlight {
     }
 }
 
+/// What a pass judged a ball's state to be at the end of its span (its response included), and
+/// of which record: while the ball publishes nothing newer, the next pass continues from here.
+#[derive(Clone, Copy)]
+struct Judged {
+    id: BallId,
+    record_time: u64,
+    record_applied: u64,
+    time: u64,
+    position: DVec2,
+    velocity: DVec2,
+}
+
+/// How a ball moves between contacts, as its own thread integrates it: its integrator, in steps
+/// no longer than the runtime's `max_step`, under its uniform acceleration (gravity, the pull)
+/// and drag (the other balls' attraction is left out: the threads take it from the tree).
+struct Motion<'a> {
+    integrator: Integrator,
+    max_step: f64,
+    drag: Option<&'a Drag>,
+    time_scale: f64,
+}
+
+impl Motion<'_> {
+    /// Moves `(x, v)` from clock instant `from` to `to` (no further than `to`; nothing if `to` is
+    /// not later).
+    fn advance(
+        &self,
+        x: &mut DVec2,
+        v: &mut DVec2,
+        ball: &Ball,
+        a: DVec2,
+        from: u64,
+        to: u64,
+        scratch: &mut IntegratorScratch,
+    ) {
+        let dt = clock_seconds(to, from) * self.time_scale;
+        if !(dt > 0.0) {
+            return;
+        }
+        let steps = (dt / self.max_step).ceil().clamp(1.0, MAX_SUBSTEPS as f64);
+        let h = dt / steps;
+        let inverse_mass = 1.0 / ball.mass;
+        let (mut xs, mut vs) = ([*x], [*v]);
+        for _ in 0..steps as u32 {
+            integrate(self.integrator, h, &mut xs, &mut vs, self.drag.is_some(), scratch, |_, v, acc| {
+                acc[0] = a + self.drag.map_or(DVec2::ZERO, |d| drag_force(v[0], ball.diameter, d) * inverse_mass);
+            });
+        }
+        (*x, *v) = (xs[0], vs[0]);
+    }
+}
+
 /// The contact part of a pass, with the memory it reuses from pass to pass.
 struct ContactPass {
     in_flight: Vec<InFlight>,
-    /// The balls at the end of the interval, and which record each came from.
+    /// By slot: where the last pass left each ball.
+    judged: Vec<Option<Judged>>,
+    /// The balls at the end of the span, and which record each came from.
     balls: Vec<SolverBall>,
     record_of: Vec<u32>,
-    /// Where each ball is at the pass instant.
-    start: Vec<DVec2>,
-    /// The circle each ball's path over the interval lies in, for the broad phase.
+    /// The circle each ball's path over the span lies in, for the broad phase.
     centres: Vec<DVec2>,
     reach: Vec<f64>,
     broad_phase: BroadPhase,
     pairs: Vec<(u32, u32)>,
     solver: ContactSolver,
+    scratch: IntegratorScratch,
+    /// The largest distance so far between where a pass left a ball and where the ball's next
+    /// record puts it at that instant (m): how well the monitor's motion matches the threads'.
+    drift_max: f64,
 }
 
 impl ContactPass {
     fn new(capacity: usize) -> Self {
         ContactPass {
             in_flight: (0..capacity).map(|_| InFlight::default()).collect(),
+            judged: vec![None; capacity],
             balls: Vec::new(),
             record_of: Vec::new(),
-            start: Vec::new(),
             centres: Vec::new(),
             reach: Vec::new(),
             broad_phase: BroadPhase::new(),
             pairs: Vec::new(),
             solver: ContactSolver::new(),
+            scratch: IntegratorScratch::default(),
+            drift_max: 0.0,
         }
     }
 
@@ -283,7 +353,6 @@ impl ContactPass {
         let span = s.params.span;
         self.balls.clear();
         self.record_of.clear();
-        self.start.clear();
         self.centres.clear();
         self.reach.clear();
         for (k, r) in records.iter().enumerate() {
@@ -294,30 +363,51 @@ impl ContactPass {
             if inbox(r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
                 continue;
             }
-            // The state the ball will have once it has applied what is in flight (see
-            // `Contact::shift_at`: the same change whenever it is applied).
-            let (mut x, mut v) = (r.ball.position, r.ball.velocity);
-            for (_, m) in &f.queue {
-                v += m.dv;
-                x += m.shift_at(r.time, s.time_scale);
-            }
             let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
-            let to_start = clock_seconds(s.start, r.time) * s.time_scale;
-            let to_end = clock_seconds(s.end, r.time) * s.time_scale;
-            let (x_start, _) = free_motion(x, v, a, to_start);
-            let (x_end, v_end) = free_motion(x, v, a, to_end);
+            // The ball at the span's start: as the last pass left it if it has published nothing
+            // since; otherwise from its record, moved on as its thread will move it, each response
+            // in flight applied at its instant (the thread holds each to that instant, and every
+            // one in flight is for an earlier span, so before this one's start).
+            let (mut x, mut v) = match self.judged[r.slot] {
+                Some(j)
+                    if j.id == r.ball.id
+                        && j.record_time == r.time
+                        && j.record_applied == r.applied
+                        && j.time == s.start =>
+                {
+                    (j.position, j.velocity)
+                }
+                _ => {
+                    let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
+                    for (_, m) in &f.queue {
+                        if m.apply_at > t {
+                            s.motion.advance(&mut x, &mut v, &r.ball, a, t, m.apply_at, &mut self.scratch);
+                            t = m.apply_at;
+                        }
+                        v += m.dv;
+                        x += m.shift_at(t, s.time_scale);
+                    }
+                    s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
+                    // How far the ball's own motion took it from where the last pass left it.
+                    if let Some(j) = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start) {
+                        self.drift_max = self.drift_max.max(x.distance(j.position));
+                    }
+                    (x, v)
+                }
+            };
+            let x_start = x;
+            s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
             let radius = r.ball.radius();
-            let (centre, reach) = swept_circle(x_start, x_end, a, span, radius);
+            let (centre, reach) = swept_circle(x_start, x, a, span, radius);
             self.balls.push(SolverBall {
                 id: r.ball.id,
-                position: x_end,
-                velocity: v_end,
+                position: x,
+                velocity: v,
                 acceleration: a,
                 inverse_mass: 1.0 / r.ball.mass,
                 radius,
             });
             self.record_of.push(k as u32);
-            self.start.push(x_start);
             self.centres.push(centre);
             self.reach.push(reach);
         }
@@ -338,10 +428,18 @@ impl ContactPass {
         add_monitor_walls(shared, &tally.walls);
         for (i, response) in self.solver.responses().iter().enumerate() {
             let b = &self.balls[i];
+            let r = &records[self.record_of[i] as usize];
+            self.judged[r.slot] = Some(Judged {
+                id: r.ball.id,
+                record_time: r.time,
+                record_applied: r.applied,
+                time: s.end,
+                position: b.position + response.shift,
+                velocity: b.velocity + response.velocity_change,
+            });
             if negligible(response, b.radius, span) {
                 continue;
             }
-            let r = &records[self.record_of[i] as usize];
             let Some(tx) = inbox(r) else { continue };
             let before_end = (response.instant / s.time_scale * 1e9).clamp(0.0, (s.end - s.start) as f64) as u64;
             let message = Contact {
@@ -360,6 +458,8 @@ impl ContactPass {
                 shared.messages_dropped.fetch_add(1, Ordering::Relaxed);
             }
         }
+        // Relaxed: a statistic (the monitor is its only writer).
+        shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
     }
 }
 

@@ -80,6 +80,13 @@ pub(crate) struct Shared {
     /// Ball cycles that stopped short of the time they woke at because the monitor's horizon was
     /// behind it (the monitor was late or the process stalled). Relaxed: a statistic.
     pub horizon_waits: AtomicU64,
+    /// `RuntimeStats::judged_drift_max` as f64 bits (the monitor is its only writer; Relaxed: a
+    /// statistic).
+    pub judged_drift_max: AtomicU64,
+    /// Contact responses a ball applied after the instant they were for (it had integrated past
+    /// it before the message came: only a ball placed ahead of the monitor's horizon can).
+    /// Relaxed: a statistic.
+    pub responses_late: AtomicU64,
     /// Cleared to stop the monitor.
     pub monitor_running: AtomicBool,
     /// Every occupied slot is below this. Raised (Release) by the runtime after it has written
@@ -137,6 +144,8 @@ impl Shared {
             monitor_walls: std::array::from_fn(|_| AtomicU64::new(0)),
             clock_dropped_ns: AtomicU64::new(0),
             horizon_waits: AtomicU64::new(0),
+            judged_drift_max: AtomicU64::new(0),
+            responses_late: AtomicU64::new(0),
             monitor_running: AtomicBool::new(true),
             high_water: AtomicUsize::new(0),
             panicked: AtomicU64::new(0),
