@@ -71,6 +71,9 @@ pub(crate) const HORIZON_PERIODS: u32 = 4;
 /// preempted for a few milliseconds on a busy machine so costs no simulated time.
 pub(crate) const MAX_ADVANCE: u32 = 20;
 
+/// Pairs this close to touching (relative to the sum of their radii) are candidates too.
+const TOUCH_MARGIN: f64 = 1e-6;
+
 /// A response smaller than this (relative to the ball's radius, in velocity·span and shift) is
 /// not worth a message: the ball is untouched.
 const NEGLIGIBLE: f64 = 1e-15;
@@ -325,6 +328,8 @@ struct ContactPass {
     pairs: Vec<(u32, u32)>,
     solver: ContactSolver,
     scratch: IntegratorScratch,
+    /// The fastest speed any ball has during this pass's span (m/s).
+    fastest: f64,
     /// The largest distance so far between where a pass left a ball and where the ball's next
     /// record puts it at that instant (m): how well the monitor's motion matches the threads'.
     drift_max: f64,
@@ -344,6 +349,7 @@ impl ContactPass {
             solver: ContactSolver::new(),
             scratch: IntegratorScratch::default(),
             drift_max: 0.0,
+            fastest: 0.0,
         }
     }
 
@@ -355,6 +361,7 @@ impl ContactPass {
         self.record_of.clear();
         self.centres.clear();
         self.reach.clear();
+        self.fastest = 0.0;
         for (k, r) in records.iter().enumerate() {
             let f = &mut self.in_flight[r.slot];
             f.sync(r);
@@ -396,7 +403,9 @@ impl ContactPass {
                 }
             };
             let x_start = x;
+            let v_start = v;
             s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
+            self.fastest = self.fastest.max(v_start.length()).max(v.length());
             let radius = r.ball.radius();
             let (centre, reach) = swept_circle(x_start, x, a, span, radius);
             self.balls.push(SolverBall {
@@ -411,8 +420,17 @@ impl ContactPass {
             self.centres.push(centre);
             self.reach.push(reach);
         }
-        // Every pair whose paths come within reach during the interval: a superset of the pairs
-        // that touch in it, whatever their speed.
+        // Every pair whose paths come within reach during the span: a superset of the pairs
+        // that touch in it, whatever their speed. A ball struck in mid-span leaves its free path:
+        // it then moves at most twice as fast as the fastest ball (an elastic strike by a much
+        // heavier one), so every path's circle grows by that much travel, and a struck ball's
+        // next contact in the span is among its pairs too. The margin keeps pairs that the
+        // solver left exactly touching (a row at rest, struck at one end).
+        let struck_travel = 2.0 * self.fastest * span;
+        for reach in &mut self.reach {
+            *reach += struck_travel;
+        }
+        self.broad_phase.set_margin(TOUCH_MARGIN);
         let field = &s.params.field;
         self.broad_phase.update(&self.centres, &self.reach, field.width, field.height);
         self.pairs.clear();
@@ -630,20 +648,27 @@ mod stand_in {
             }
         }
 
+        /// How far back pair (i, j) may be rewound (to the later of their last impacts in this
+        /// call, before which their paths are not the rewound ones), and the reach to judge it
+        /// by: after an impact, a pair that touches at that very instant (a cradle: struck on
+        /// from the other side) must count as apart there, not as overlapping by a rounding.
+        fn judged_reach(&self, balls: &[SolverBall], i: usize, j: usize, span: f64) -> (f64, f64) {
+            let within = self.last_impact[i].min(self.last_impact[j]);
+            let reach = balls[i].radius + balls[j].radius;
+            (within, if within < span { reach * (1.0 - 1e-12) } else { reach })
+        }
+
         fn impacts(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], p: &ContactParams, tally: &mut SolveTally) {
-            let e = p.restitution;
+            let (e, span) = (p.restitution, p.span);
             for round in 0..IMPACT_ROUNDS {
                 // Every pair's impact on the paths as they are now, earliest first.
                 self.impacts.clear();
                 for (k, &(i, j)) in pairs.iter().enumerate() {
                     let (i, j) = (i as usize, j as usize);
-                    let within = self.last_impact[i].min(self.last_impact[j]);
+                    let (within, reach) = self.judged_reach(balls, i, j, span);
                     let (d, u) = (self.x[j] - self.x[i], self.v[j] - self.v[i]);
-                    if let Some(s) = impact_before_end(d, u, balls[i].radius + balls[j].radius, within) {
-                        // A pair struck at the very end of the last round's path is not new.
-                        if s < within {
-                            self.impacts.push((s, k as u32));
-                        }
+                    if let Some(s) = impact_before_end(d, u, reach, within) {
+                        self.impacts.push((s, k as u32));
                     }
                 }
                 if self.impacts.is_empty() {
@@ -658,10 +683,9 @@ mod stand_in {
                     let (i, j) = pairs[pair as usize];
                     let (i, j) = (i as usize, j as usize);
                     // Judged again: an earlier impact of this round may have moved either path.
-                    let within = self.last_impact[i].min(self.last_impact[j]);
+                    let (within, reach) = self.judged_reach(balls, i, j, span);
                     let (d, u) = (self.x[j] - self.x[i], self.v[j] - self.v[i]);
-                    let reach = balls[i].radius + balls[j].radius;
-                    let Some(s) = impact_before_end(d, u, reach, within).filter(|&s| s < within) else { continue };
+                    let Some(s) = impact_before_end(d, u, reach, within) else { continue };
                     let at = d - u * s;
                     let normal = at / at.length();
                     let v_rel = u.dot(normal);
