@@ -57,6 +57,8 @@ fn record(k: u64) -> BallRecord {
         applied: 100 + k,
         updates: 7 * k,
         wall_impulses: WallImpulses { left: 8.0 * f, right: 9.0 * f, bottom: 10.0 * f, top: 11.0 * f },
+        time: 12 * k,
+        acceleration: DVec2::new(13.0 * f, 14.0 * f),
     }
 }
 
@@ -75,7 +77,7 @@ fn model(f: impl Fn() + Sync + Send + 'static) {
     builder.check(f);
 }
 
-/// The latch itself, on a slot of two words (the table's slots are the same code with 13): one
+/// The latch itself, on a slot of two words (the table's slots are the same code with 16): one
 /// writer publishes two writes after the first while a reader reads twice. Every read is one
 /// whole write, and the reader never goes back to an older write than one it saw.
 #[test]
@@ -135,7 +137,7 @@ fn latch_two_readers_get_whole_writes() {
     });
 }
 
-/// The table's own records (13 words, encoded and decoded by `BallTable`): a reader racing a
+/// The table's own records (16 words, encoded and decoded by `BallTable`): a reader racing a
 /// write gets the old record or the new one, whole.
 #[test]
 fn a_reader_racing_the_writer_gets_a_whole_record() {

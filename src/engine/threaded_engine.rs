@@ -97,15 +97,20 @@ impl Engine for ThreadedEngine {
     }
 
     fn time(&self) -> f64 {
-        self.clock.now()
+        // Less the wall time the runtime dropped from its clock (a stalled process).
+        (self.clock.now() - self.runtime.clock_dropped_seconds() * self.clock.scale).max(0.0)
     }
 
     fn advance_to(&mut self, t: f64) {
         if self.runtime.is_paused() || self.clock.scale <= 0.0 {
             return;
         }
-        let left = (t - self.clock.now()) / self.clock.scale;
-        if left > 0.0 {
+        // Again after each sleep: a stall the runtime drops from its clock makes it run longer.
+        loop {
+            let left = (t - self.time()) / self.clock.scale;
+            if left <= 0.0 {
+                return;
+            }
             std::thread::sleep(Duration::from_secs_f64(left));
         }
     }
@@ -156,9 +161,12 @@ impl Engine for ThreadedEngine {
 
     fn quiesce(&mut self) {
         self.step_until = None;
-        self.pause_now();
-        // Every ball sees the flag within a cycle; three leave room for one that was preempted.
-        std::thread::sleep(self.cycle * 3);
+        self.clock.rebase(false);
+        // Every ball catches up to the monitor's horizon with every contact message applied, so
+        // the balls are read at one instant.
+        if !self.runtime.settle(Duration::from_secs(5)) {
+            log::warn!("the threaded engine's balls did not all catch up within 5 s: the end state mixes instants");
+        }
     }
 
     fn sample(&mut self, out: &mut Vec<Ball>) {

@@ -181,8 +181,8 @@ impl RunReport {
             );
             let _ = writeln!(
                 s,
-                "messages     {} impulses sent, {} applied, {} deferred, {} dropped; {} threads panicked",
-                st.impulses_sent, st.impulses_applied, st.contacts_deferred, st.messages_dropped, st.threads_panicked
+                "messages     {} impulses sent, {} applied, {} dropped; {} threads panicked",
+                st.impulses_sent, st.impulses_applied, st.messages_dropped, st.threads_panicked
             );
             if st.speed_limited + st.drag_limited > 0 {
                 let _ = writeln!(

@@ -14,6 +14,7 @@ mod field;
 mod forces;
 mod integrator;
 mod step_policy;
+mod sweep;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
@@ -37,3 +38,4 @@ pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
+pub use sweep::{free_motion, impact_before_end, swept_circle, wall_impact_before_end};

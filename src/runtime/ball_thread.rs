@@ -1,6 +1,16 @@
 //! The life of one ball on its own thread: measure dt, sub-step the effects, bounce off the
 //! walls, apply the messages in its inbox, publish to the table, wait for the next cycle.
+//!
+//! **Time.** A ball's state is of an instant on the runtime clock (`Shared::clock`), published
+//! with it. Each cycle the ball integrates from that instant to the clock now, but never past the
+//! monitor's horizon: the instant up to which the monitor has judged every contact. A ball that
+//! wakes late (the machine starved it) catches up to the horizon; what the monitor judged for it
+//! meanwhile is in its inbox, each response applied as at its own instant. A ball that wakes after
+//! a stall of the whole process finds the horizon where the monitor left it and waits for the
+//! next pass, which drops the stalled time from the clock: it never integrates through contacts
+//! nobody watched.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -8,9 +18,10 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
-use super::message::Message;
+use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
+use crate::physics::Field;
 use crate::physics::{
     Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
     SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
@@ -43,6 +54,10 @@ struct BallState {
     applied: u64,
     updates: u64,
     walls: WallImpulses,
+    /// The instant the state is of (runtime clock, ns).
+    time: u64,
+    /// Contact messages received and not applied yet, oldest first (see `catch_up`).
+    held: VecDeque<Contact>,
     /// Cycles since the last flush that took attraction from the tree / read the table directly.
     tree_cycles: u64,
     direct_cycles: u64,
@@ -89,7 +104,8 @@ enum AttractionSource {
 }
 
 impl BallState {
-    fn publish(&self, shared: &Shared) {
+    fn publish(&self, shared: &Shared, params: &Params) {
+        let gravity = params.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
         shared.table.write(
             self.slot,
             &BallRecord {
@@ -98,7 +114,27 @@ impl BallState {
                 applied: self.applied,
                 updates: self.updates,
                 wall_impulses: self.walls,
+                time: self.time,
+                acceleration: gravity + self.pull / self.ball.mass,
             },
+        );
+    }
+
+    /// Applies a contact response as at its stamp (see [`Contact`]), now, at the state's instant.
+    fn apply(&mut self, m: &Contact, params: &Params) {
+        self.ball.velocity += m.dv;
+        self.ball.position += m.shift_at(self.time, params.time_scale);
+        self.applied += 1;
+        // A shift may take the ball past a wall: the wall holds it, as in a step.
+        let r = self.ball.radius();
+        ball_walls(
+            &mut self.ball.position,
+            &mut self.ball.velocity,
+            r,
+            self.ball.mass,
+            DVec2::ZERO,
+            params,
+            &mut self.walls,
         );
     }
 
@@ -138,6 +174,8 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     }
     let cycle = shared.config.ball_cycle;
     let max_step = shared.config.max_step;
+    // The runtime wrote the first record, with the instant it was placed at.
+    let time = shared.table.read(slot).map_or_else(|| shared.clock(Instant::now()), |r| r.time);
     let mut state = BallState {
         ball,
         slot,
@@ -145,6 +183,8 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         applied: 0,
         updates: 0,
         walls: WallImpulses::default(),
+        time,
+        held: VecDeque::new(),
         tree_cycles: 0,
         direct_cycles: 0,
         longest_cycle: 0,
@@ -157,22 +197,25 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
     loop {
-        // Wait for the next cycle, then apply what arrived meanwhile.
+        // Wait for the next cycle, then take what arrived meanwhile. The horizon is read before
+        // the inbox (Acquire; see `Shared::horizon`): every contact message of the pass that
+        // published it is in the inbox by then.
         let mut now = waiter.wait(last);
+        let horizon = shared.horizon.load(Ordering::Acquire);
         let mut received = false;
         loop {
             match inbox.try_recv() {
                 Ok(message) => {
                     received = true;
-                    if let Handled::Stop = handle(message, &mut state, &mut params) {
-                        state.publish(&shared);
+                    if let Handled::Stop = handle(message, &mut state) {
+                        state.publish(&shared, &params);
                         state.flush_counts(&shared);
                         return;
                     }
                 }
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => {
-                    state.publish(&shared);
+                    state.publish(&shared, &params);
                     state.flush_counts(&shared);
                     return;
                 }
@@ -182,7 +225,6 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             // Handling a message may take time (a stall, test hook): the cycle starts after it.
             now = Instant::now();
         }
-        let elapsed = now - last;
         last = now;
         let g = shared.params_generation.load(Ordering::Acquire);
         if g != generation {
@@ -193,21 +235,82 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
         if shared.paused.load(Ordering::Relaxed) {
             state.flush_counts(&shared);
-            if received {
-                // Messages still land while paused (and the monitor sees them applied).
-                state.publish(&shared);
+            // The monitor judges nothing while paused, so the horizon stands: every ball catches
+            // up to it, applying each response it holds at its instant, and stops there. The
+            // paused table is then one instant for every ball, with every message applied (the
+            // monitor sees them applied). That is at most a horizon of simulated time after the
+            // pause was asked for.
+            let (from, applied) = (state.time, state.applied);
+            catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
+            if received || state.applied != applied || state.time != from {
+                state.publish(&shared, &params);
             }
             continue;
         }
-        let dt = elapsed.as_secs_f64() * params.time_scale;
-        let source = advance(&mut state, dt, max_step, &params, &shared, &mut scratch);
-        state.count(source);
-        state.updates += 1;
-        state.publish(&shared);
+        let clock = shared.clock(now);
+        if clock > horizon {
+            // Relaxed: a statistic.
+            shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
+        }
+        let (from, applied) = (state.time, state.applied);
+        let source = catch_up(clock.min(horizon), &mut state, &params, max_step, &shared, &mut scratch);
+        if state.time > from {
+            state.count(source);
+            state.updates += 1;
+        }
+        if state.time > from || state.applied != applied || received {
+            state.publish(&shared, &params);
+        }
         if state.updates.is_multiple_of(COUNTER_FLUSH) {
             state.flush_counts(&shared);
         }
     }
+}
+
+/// A held response is applied early, at the start of the stretch before its `apply_at`, when it
+/// would put the ball at most this fraction of its radius off the path it will have (its velocity
+/// change times the time it comes early): resting contacts, mostly, whose small impulse
+/// is not worth splitting the cycle for.
+const EARLY: f64 = 1e-9;
+
+/// Integrates the ball from its state's instant to `target` (runtime clock), applying each held
+/// contact response on the way at the instant it is due (its `apply_at`; already due ones at
+/// once), so the ball never integrates through an impact the monitor judged. Responses not due
+/// by `target` stay held. Returns where the last stretch's attraction came from.
+fn catch_up(
+    target: u64,
+    state: &mut BallState,
+    params: &Params,
+    max_step: f64,
+    shared: &Shared,
+    scratch: &mut CycleScratch,
+) -> AttractionSource {
+    let scale = params.time_scale;
+    let tolerance = EARLY * state.ball.radius();
+    let mut source = AttractionSource::Off;
+    while let Some(m) = state.held.front().copied() {
+        if m.apply_at > target {
+            break;
+        }
+        if m.apply_at > state.time {
+            let lead = clock_seconds(m.apply_at, state.time) * scale;
+            if m.dv.length() * lead > tolerance {
+                source = advance(state, lead, max_step, params, shared, scratch);
+                state.time = m.apply_at;
+            }
+        } else if m.apply_at < state.time {
+            // Relaxed: a statistic.
+            shared.responses_late.fetch_add(1, Ordering::Relaxed);
+        }
+        state.held.pop_front();
+        state.apply(&m, params);
+    }
+    if target > state.time {
+        let dt = clock_seconds(target, state.time) * scale;
+        source = advance(state, dt, max_step, params, shared, scratch);
+        state.time = target;
+    }
+    source
 }
 
 /// A yield that hands the core back sooner than this found nobody else waiting for it.
@@ -288,24 +391,11 @@ impl Waiter {
     }
 }
 
-fn handle(message: Message, state: &mut BallState, params: &mut Params) -> Handled {
+fn handle(message: Message, state: &mut BallState) -> Handled {
     match message {
-        Message::Contact { dv, dx } => {
-            state.ball.velocity += dv;
-            state.ball.position += dx;
-            state.applied += 1;
-            // A shift may push the ball past a wall: the wall holds it, as it would in a step.
-            let r = state.ball.radius();
-            contact_ball_wall(
-                &mut state.ball.position,
-                &mut state.ball.velocity,
-                r,
-                state.ball.mass,
-                DVec2::ZERO,
-                &params.field,
-                &mut state.walls,
-            );
-        }
+        // Applied in `catch_up`, in the order sent (the monitor counts them so), each no earlier
+        // than it is due.
+        Message::Contact(contact) => state.held.push_back(contact),
         Message::Pull(force) => state.pull = force,
         Message::SetMass(mass) => state.ball.mass = mass,
         Message::Throw(velocity) => state.ball.velocity = velocity,
@@ -505,21 +595,42 @@ fn take_substeps(
             ball.position = x[0];
             ball.velocity = v[0];
         }
-        contact_ball_wall(
-            &mut ball.position,
-            &mut ball.velocity,
-            radius,
-            mass,
-            uniform,
-            &params.field,
-            &mut state.walls,
-        );
+        ball_walls(&mut ball.position, &mut ball.velocity, radius, mass, uniform, params, &mut state.walls);
         // Lockstep's speed guard rail, for fields faster than the shortest sub-step resolves.
         if cap_speed(&mut ball.velocity) {
             // Relaxed: a statistic (see `Shared::speed_limited`).
             shared.speed_limited.fetch_add(1, Ordering::Relaxed);
         }
     }
+}
+
+/// The walls as a ball's own thread meets them. With collisions on, walls are contacts in the
+/// monitor's solver, judged ahead with the ball's other contacts (that is what stands a pile on
+/// the floor) and sent as part of its responses; here the ball is only held inside the field,
+/// its velocity untouched, so that if it ever gets past a wall before a response reverses it,
+/// the monitor's next pass finds it at the wall moving out and strikes it there once — a bounce
+/// the ball also gave itself would be a second impulse for the one contact. Without collisions
+/// the monitor judges nothing and the ball bounces itself, counting the impulse on its gauge.
+fn ball_walls(
+    position: &mut DVec2,
+    velocity: &mut DVec2,
+    radius: f64,
+    mass: f64,
+    acceleration: DVec2,
+    params: &Params,
+    walls: &mut WallImpulses,
+) {
+    if params.effects.collisions.is_some() {
+        hold_inside(position, radius, &params.field);
+    } else {
+        contact_ball_wall(position, velocity, radius, mass, acceleration, &params.field, walls);
+    }
+}
+
+/// Puts a ball that is past a wall back on it, leaving its velocity alone.
+fn hold_inside(position: &mut DVec2, radius: f64, field: &Field) {
+    position.x = position.x.clamp(radius.min(field.width - radius), (field.width - radius).max(radius));
+    position.y = position.y.clamp(radius.min(field.height - radius), (field.height - radius).max(radius));
 }
 
 /// Ball threads (all but the key ball) are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not

@@ -5,10 +5,10 @@ use glam::DVec2;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Message {
-    /// From the collision monitor: add `dv` to the velocity and `dx` to the position. Relative
-    /// changes, not absolute values: however late it is applied, momentum stays exact and what
-    /// gravity did meanwhile is kept. Counted in the ball's `applied` counter.
-    Contact { dv: DVec2, dx: DVec2 },
+    /// From the collision monitor: one pass's net response of every contact of this ball.
+    /// Relative changes, not absolute values: however late it is applied, momentum stays exact
+    /// and what gravity did meanwhile is kept. Counted in the ball's `applied` counter.
+    Contact(Contact),
     /// The player's pull (N) on the key ball, held until the next `Pull`.
     Pull(DVec2),
     /// A new mass (kg) for this ball (the panel's key-ball mass slider).
@@ -24,4 +24,35 @@ pub enum Message {
     /// Test hook: panic inside the ball's thread.
     #[doc(hidden)]
     Panic,
+}
+
+/// A contact response, stamped. The monitor solved the ball's contacts on its state extrapolated
+/// to the instant `stamp` (the end of the interval the pass judged): there, the velocity changes
+/// by `dv` and the position by `dx`. Applied at any instant `t` of the ball's own timeline, it is
+/// the same change as at `stamp`: `v += dv`, `x += dx + dv·(t − stamp)` (the ball then moves on
+/// with the new velocity for `t − stamp`, or has moved with it since). Under uniform forces this
+/// is exact whenever it is applied. The ball applies it no earlier than `apply_at` (the instant
+/// of its first impact in the pass, or the start of the interval for resting contacts), so that
+/// it never shows a state between the impact's two sides, and never later than it reaches the
+/// horizon the pass published.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    pub dv: DVec2,
+    pub dx: DVec2,
+    /// Runtime clock, ns (see `Shared::clock`).
+    pub stamp: u64,
+    pub apply_at: u64,
+}
+
+impl Contact {
+    /// The position change when applied at instant `t` (runtime clock, ns), with `time_scale`
+    /// simulated seconds per clock second.
+    pub fn shift_at(&self, t: u64, time_scale: f64) -> DVec2 {
+        self.dx + self.dv * (clock_seconds(t, self.stamp) * time_scale)
+    }
+}
+
+/// `a − b` in seconds, signed, for two runtime clock instants (ns).
+pub fn clock_seconds(a: u64, b: u64) -> f64 {
+    if a >= b { (a - b) as f64 * 1e-9 } else { -((b - a) as f64 * 1e-9) }
 }

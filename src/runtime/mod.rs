@@ -80,13 +80,28 @@ pub struct RuntimeStats {
     pub ball_rate_median: f64,
     pub monitor_passes: u64,
     pub monitor_passes_per_second: f64,
-    /// Mean wall time of one monitor pass, s (includes time it was preempted).
+    /// Mean wall time of one monitor pass, s (includes time it was preempted), and the longest.
     pub monitor_pass_seconds: f64,
+    pub monitor_pass_seconds_max: f64,
     /// Contact messages (impulse + shift) the monitor sent, and those the balls applied.
     pub impulses_sent: u64,
     pub impulses_applied: u64,
-    /// Pairs the monitor left for a later pass because a message to one of them was in flight.
-    pub contacts_deferred: u64,
+    /// Contacts (ball pairs and walls) the monitor's solver found touching, summed over its
+    /// passes; those that got an impact (restitution) impulse; solves that hit an iteration cap.
+    pub contacts_solved: u64,
+    pub contact_impacts: u64,
+    pub solves_unconverged: u64,
+    /// Wall time the runtime clock dropped because the monitor came too late to have watched it
+    /// (a stalled process, a starved monitor), s; and ball cycles that stopped at the monitor's
+    /// horizon short of the clock.
+    pub clock_dropped_seconds: f64,
+    pub horizon_waits: u64,
+    /// The largest distance between where the monitor judged a ball to be at the end of a span
+    /// and where the ball's next record put it then, m (its own integration of drag, attraction
+    /// and its step sizes against the monitor's), over the run.
+    pub judged_drift_max: f64,
+    /// Contact responses applied after the instant they were for (see `Shared::responses_late`).
+    pub responses_late: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
     /// The ball threads' guard rails, as in lockstep: speeds capped at `MAX_SPEED`, and cycles
@@ -221,9 +236,17 @@ impl Runtime {
         let slot = reg.free_slots.pop_first().unwrap_or(high);
         // The slot is free and no thread owns it yet: the runtime writes the first record. The
         // spawn below hands the slot to the new thread (spawn happens-before the thread's start).
-        self.shared
-            .table
-            .write(slot, &BallRecord { slot, ball, applied: 0, updates: 0, wall_impulses: WallImpulses::default() });
+        let gravity = self.params().effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let record = BallRecord {
+            slot,
+            ball,
+            applied: 0,
+            updates: 0,
+            wall_impulses: WallImpulses::default(),
+            time: self.shared.clock(Instant::now()),
+            acceleration: gravity,
+        };
+        self.shared.table.write(slot, &record);
         if slot >= high {
             // Release: readers that Acquire the new high-water mark see the record just written.
             self.shared.high_water.store(slot + 1, Ordering::Release);
@@ -396,6 +419,28 @@ impl Runtime {
         self.shared.paused.store(false, Ordering::Relaxed);
     }
 
+    /// Pauses and waits (up to `timeout`) until every ball has caught up to the monitor's
+    /// horizon with every contact message applied: the table is then one instant for all balls.
+    /// Returns whether that happened in time (a starved machine may take a while).
+    pub fn settle(&self, timeout: Duration) -> bool {
+        self.pause();
+        wait_until(timeout, || {
+            // Acquire: see `Shared::horizon` (nothing rides on it here but the value).
+            let horizon = self.shared.horizon.load(Ordering::Acquire);
+            let records = self.snapshot();
+            let sent = self.shared.contact_messages_sent.load(Ordering::Relaxed);
+            let applied = self.registry.lock().retired.applied + records.iter().map(|r| r.applied).sum::<u64>();
+            sent == applied && records.iter().all(|r| r.time == horizon)
+        })
+    }
+
+    /// Seconds of wall time the runtime's clock dropped (a stall of the whole process is not
+    /// simulated: see `Shared::clock`).
+    pub fn clock_dropped_seconds(&self) -> f64 {
+        // Relaxed: a figure; nothing else is read through it.
+        self.shared.clock_dropped_ns.load(Ordering::Relaxed) as f64 * 1e-9
+    }
+
     pub fn is_paused(&self) -> bool {
         self.shared.paused.load(Ordering::Relaxed)
     }
@@ -434,10 +479,12 @@ impl Runtime {
         Bodies::from_balls(&balls)
     }
 
-    /// Impulse each wall took so far, from live and removed balls.
+    /// Impulse each wall took so far: in the contacts the monitor solved, and in the bounces of
+    /// live and removed balls' own threads (collisions off).
     pub fn wall_impulses(&self) -> WallImpulses {
-        let retired = self.registry.lock().retired.walls;
-        self.snapshot().iter().fold(retired, |mut w, r| {
+        let mut total = self.registry.lock().retired.walls;
+        total.add_all(&self.shared.monitor_wall_impulses());
+        self.snapshot().iter().fold(total, |mut w, r| {
             w.left += r.wall_impulses.left;
             w.right += r.wall_impulses.right;
             w.bottom += r.wall_impulses.bottom;
@@ -476,7 +523,14 @@ impl Runtime {
                 / passes.max(1) as f64,
             impulses_sent: self.shared.contact_messages_sent.load(Ordering::Relaxed),
             impulses_applied: reg.retired.applied + records.iter().map(|r| r.applied).sum::<u64>(),
-            contacts_deferred: self.shared.contacts_deferred.load(Ordering::Relaxed),
+            monitor_pass_seconds_max: self.shared.monitor_busy_max_ns.load(Ordering::Relaxed) as f64 * 1e-9,
+            contacts_solved: self.shared.contacts_solved.load(Ordering::Relaxed),
+            contact_impacts: self.shared.contact_impacts.load(Ordering::Relaxed),
+            solves_unconverged: self.shared.solves_unconverged.load(Ordering::Relaxed),
+            clock_dropped_seconds: self.shared.clock_dropped_ns.load(Ordering::Relaxed) as f64 * 1e-9,
+            horizon_waits: self.shared.horizon_waits.load(Ordering::Relaxed),
+            judged_drift_max: f64::from_bits(self.shared.judged_drift_max.load(Ordering::Relaxed)),
+            responses_late: self.shared.responses_late.load(Ordering::Relaxed),
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
             speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),
             drag_limited: self.shared.drag_limited.load(Ordering::Relaxed),

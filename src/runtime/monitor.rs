@@ -1,37 +1,86 @@
-//! The collision-monitor thread: reads the table, finds touching pairs, and sends each ball its
-//! share of the impulse and of the separation as messages. With attraction on in a field of
-//! [`TREE_MIN_BALLS`] balls or more it also builds the field's Barnes–Hut tree from the same read
-//! and publishes it to the ball threads (`attraction_tree.rs`). It never writes a ball's state.
+//! The collision-monitor thread. Each pass it reads the table, judges every contact of the coming
+//! interval at once, and sends each touched ball one message with its net response. With
+//! attraction on in a field of [`TREE_MIN_BALLS`] balls or more it also builds the field's
+//! Barnes–Hut tree from the same read and publishes it to the ball threads
+//! (`attraction_tree.rs`). It never writes a ball's state.
+//!
+//! **A pass.** The pass instant `t` is the runtime clock now (see `Shared::clock`). The pass
+//! judges the span from where the last pass stopped to `t + HORIZON`: consecutive passes judge
+//! consecutive spans, each once, as lockstep's steps do, a horizon ahead of the balls. Every ball
+//! is taken from its own record (each is of its own instant), with the contact messages it has
+//! not applied yet added as it will apply them, and carried in free motion (its published uniform
+//! acceleration: gravity, the pull) to the end of the span. The contact solver then solves every
+//! contact of every ball over the span in one call — impacts swept from the span's start (a pair
+//! that passed through each other in the free motion is found by its time of impact), resting
+//! contacts, walls — and each ball with a response gets it as one [`Contact`] message stamped
+//! with the span's end, to be applied at its first impact in the span (resting contacts: at the
+//! span's start). Last, the pass publishes the span's end as the horizon: no ball integrates past
+//! it before the next pass has judged further, so every response reaches its ball before the
+//! ball reaches the instant it is for.
+//!
+//! Why consecutive spans, not overlapping ones: a response in flight makes a ball's predicted
+//! path the one after its impact, and that path rewound to before the impact is not where the
+//! ball was (two balls that bounced would seem to have come through each other). The solver
+//! rewinds only within its span, and every impact of earlier spans lies before this one's start.
+//!
+//! **No double impulse.** A message the ball has not applied yet is part of the state the next
+//! pass solves from (the ball's `applied` count in the table says which are), so a contact whose
+//! impulse is in flight is seen as already separating and is not struck again; no ball is left
+//! out of a pass because a message to it is in flight.
+//!
+//! **Late passes.** A pass that comes more than [`MAX_ADVANCE`] periods after the last (the
+//! process stalled, the machine starved the monitor) would have to judge one long span in one
+//! solve, a poor stand-in for the passes that did not happen; nobody integrated that time (the
+//! horizon held every ball), so the clock drops it, as a pause does, and the span is one period.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use crossbeam_channel::Sender;
+use glam::DVec2;
 use parking_lot::RwLock;
 
 use super::attraction_tree::TreePublisher;
-use super::message::Message;
+use super::message::{Contact, Message, clock_seconds};
 use super::shared::Shared;
 use super::table::BallRecord;
-use crate::physics::{AttractionMethod, BallId, Bodies, BroadPhase, ContactBody, TREE_MIN_BALLS, contact_ball_ball};
+use crate::physics::MAX_SUBSTEPS;
+use crate::physics::{
+    AttractionMethod, Ball, BallId, BroadPhase, Drag, Integrator, IntegratorScratch, TREE_MIN_BALLS, WallImpulses,
+    drag_force, integrate, swept_circle,
+};
+use stand_in::{BallResponse, ContactParams, ContactSolver, SolverBall};
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
-/// read (read lock) by the monitor for the whole sending part of a pass, so that once a removal
+/// read (read lock) by the monitor for the whole contact part of a pass, so that once a removal
 /// has cleared a slot no message can be sent to the departing ball.
 pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Sender<Message>>>>>;
 
-/// Contact messages sent to the ball in a slot, and to which ball (a slot is reused by a later
-/// ball, whose own counters start from zero).
-#[derive(Clone, Copy, Default)]
-struct Sent {
-    id: Option<BallId>,
-    count: u64,
-}
+/// How far ahead of its instant a pass judges the contacts, in monitor periods: the next pass
+/// comes one period later and takes a fraction of one, and the balls must not reach the horizon
+/// before it has published the next (they would wait). Four periods leave two and a half for
+/// a late wake-up of the monitor.
+pub(crate) const HORIZON_PERIODS: u32 = 4;
+
+/// Passes more than this many periods apart drop the time beyond one period (see the module
+/// comment). A pass that is late by less judges its whole span in one solve, as a lockstep
+/// step that long would: a binary impact is exact at any span, and under gravity a resting
+/// ball sinks `g·span²/2` into its support before the solver lifts it (2 mm at 20 ms). A monitor
+/// preempted for a few milliseconds on a busy machine so costs no simulated time.
+pub(crate) const MAX_ADVANCE: u32 = 20;
+
+/// Pairs this close to touching (relative to the sum of their radii) are candidates too.
+const TOUCH_MARGIN: f64 = 1e-6;
+
+/// A response smaller than this (relative to the ball's radius, in velocity·span and shift) is
+/// not worth a message: the ball is untouched.
+const NEGLIGIBLE: f64 = 1e-15;
 
 /// The monitor asks for this nice value (higher priority than the balls' +5). Lowering niceness
 /// needs privilege (root or CAP_SYS_NICE); without it the monitor stays at 0 and relies on the
-/// balls' +5 alone.
+/// balls' `SCHED_IDLE` alone.
 const MONITOR_NICE: libc::c_int = -5;
 
 fn raise_priority() {
@@ -46,16 +95,21 @@ fn raise_priority() {
     }
 }
 
+/// The monitor is the only writer of the clock's offset: it moves the clock back by `ns`.
+fn drop_time(shared: &Shared, ns: u64) {
+    // Relaxed load: this thread is the only writer. Release store: see `Shared::clock_offset`.
+    let offset = shared.clock_offset.load(Ordering::Relaxed);
+    shared.clock_offset.store(offset + ns, Ordering::Release);
+}
+
 pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     raise_priority();
     let period = shared.config.monitor_period;
-    // How far back a collision may be replayed: about one ball cycle of motion.
-    let cycle = shared.config.ball_cycle.as_secs_f64();
+    let period_ns = (period.as_nanos() as u64).max(1);
+    let horizon_ns = HORIZON_PERIODS as u64 * period_ns;
+    let max_advance = MAX_ADVANCE as u64 * period_ns;
     let mut records: Vec<BallRecord> = Vec::new();
-    let mut bodies = Bodies::new();
-    let mut broad_phase = BroadPhase::new();
-    let mut pairs: Vec<(u32, u32)> = Vec::new();
-    let mut sent: Vec<Sent> = vec![Sent::default(); shared.table.capacity()];
+    let mut contacts = ContactPass::new(shared.table.capacity());
     let mut trees = TreePublisher::default();
     // The parameters change rarely (panel, hotkeys): re-read them only when their generation
     // moved, as the ball threads do. Acquire pairs with the Release increment in
@@ -63,7 +117,13 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     // before it.
     let mut generation = shared.params_generation.load(Ordering::Acquire);
     let mut params = shared.params.read().clone();
+    let mut t_pass = shared.clock(Instant::now());
+    // Where the judged time ends: the first pass judges from here. Release: see
+    // `Shared::horizon` (nothing is sent before the first pass).
+    let mut judged = t_pass;
+    shared.horizon.store(judged, Ordering::Release);
     let mut next = Instant::now();
+    let mut busy_max_ns = 0u64;
     // Acquire/Release on the flag: the runtime clears it and then joins; nothing else rides on it.
     while shared.monitor_running.load(Ordering::Acquire) {
         let pass_start = Instant::now();
@@ -72,94 +132,629 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
             generation = g;
             params = shared.params.read().clone();
         }
-        // Paused means everything stands still, contacts included (Relaxed: no data rides on it).
+        // Paused means everything stands still, contacts and the clock included (Relaxed: no
+        // data rides on the flag).
         let paused = shared.paused.load(Ordering::Relaxed);
-        // Acquire: pairs with the runtime's Release store after it wrote a new slot's first record.
-        let high = shared.high_water.load(Ordering::Acquire);
-        // Attraction by tree needs at least TREE_MIN_BALLS balls, so fewer occupied slots than
-        // that rule it out without reading the table.
-        let attraction = params.effects.attraction.filter(|_| high >= TREE_MIN_BALLS);
-        if !paused && (params.effects.collisions.is_some() || attraction.is_some()) {
-            shared.table.read_all(high, &mut records);
-        }
-        // The tree first: the balls get the fresher field sooner. Paused, the published tree
-        // stays (no ball advances).
-        match attraction {
-            _ if paused => {}
-            Some(att) if AttractionMethod::choose(records.len(), &att) == AttractionMethod::Tree => {
-                // Rebuilt once the balls have moved on since the last build (see `is_fresh`).
-                if !trees.is_fresh(&records, &att) {
-                    let t0 = Instant::now();
-                    if trees.publish(&records, &att, &shared.attraction_tree) {
-                        shared.tree_builds.fetch_add(1, Ordering::Relaxed);
-                        shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
-                    } else {
-                        shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+        let now = shared.clock(pass_start);
+        if paused {
+            drop_time(&shared, now.saturating_sub(t_pass));
+        } else {
+            if now > t_pass + max_advance {
+                let dropped = now - t_pass - period_ns;
+                drop_time(&shared, dropped);
+                shared.clock_dropped_ns.fetch_add(dropped, Ordering::Relaxed);
+                t_pass += period_ns;
+            } else {
+                t_pass = t_pass.max(now);
+            }
+            // Acquire: pairs with the runtime's Release store after it wrote a new slot's first
+            // record.
+            let high = shared.high_water.load(Ordering::Acquire);
+            // Attraction by tree needs at least TREE_MIN_BALLS balls, so fewer occupied slots
+            // than that rule it out without reading the table.
+            let attraction = params.effects.attraction.filter(|_| high >= TREE_MIN_BALLS);
+            if params.effects.collisions.is_some() || attraction.is_some() {
+                shared.table.read_all(high, &mut records);
+            }
+            // The tree first: the balls get the fresher field sooner.
+            match attraction {
+                Some(att) if AttractionMethod::choose(records.len(), &att) == AttractionMethod::Tree => {
+                    // Rebuilt once the balls have moved on since the last build (see `is_fresh`).
+                    if !trees.is_fresh(&records, &att) {
+                        let t0 = Instant::now();
+                        if trees.publish(&records, &att, &shared.attraction_tree) {
+                            shared.tree_builds.fetch_add(1, Ordering::Relaxed);
+                            shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                        } else {
+                            shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+                        }
+                        shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
                     }
-                    shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
                 }
+                _ => trees.withdraw(&shared.attraction_tree),
             }
-            _ => trees.withdraw(&shared.attraction_tree),
-        }
-        if let (Some(collisions), false) = (params.effects.collisions, paused) {
-            bodies.clear();
-            for r in &records {
-                bodies.push(r.ball);
-            }
-            broad_phase.update(&bodies.position, &bodies.radius, params.field.width, params.field.height);
-            pairs.clear();
-            broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
-            let inboxes = inboxes.read();
-            // A ball has a message in flight when the monitor sent it more than the table says it
-            // applied. Its state in this snapshot is then stale with respect to that message, and
-            // a new impulse computed from it could be a second impulse for the same contact (the
-            // original design's "balls stick together" bug): such pairs wait for the next pass.
-            let pending = |r: &BallRecord, sent: &mut [Sent]| {
-                let s = &mut sent[r.slot];
-                if s.id != Some(r.ball.id) {
-                    *s = Sent { id: Some(r.ball.id), count: 0 };
-                }
-                s.count > r.applied
-            };
-            for &(i, j) in &pairs {
-                let (ra, rb) = (&records[i as usize], &records[j as usize]);
-                if pending(ra, &mut sent) || pending(rb, &mut sent) {
-                    shared.contacts_deferred.fetch_add(1, Ordering::Relaxed);
-                    continue;
-                }
-                let body = |r: &BallRecord| ContactBody {
-                    id: r.ball.id,
-                    position: r.ball.position,
-                    velocity: r.ball.velocity,
-                    inverse_mass: 1.0 / r.ball.mass,
-                    radius: r.ball.radius(),
+            let end = (t_pass + horizon_ns).max(judged);
+            let span = (end - judged) as f64 * 1e-9 * params.time_scale;
+            if let (Some(collisions), true) = (params.effects.collisions, span > 0.0) {
+                let setting = PassSetting {
+                    start: judged,
+                    end,
+                    time_scale: params.time_scale,
+                    motion: Motion {
+                        integrator: params.integrator,
+                        max_step: shared.config.max_step,
+                        drag: params.effects.drag.as_ref(),
+                        time_scale: params.time_scale,
+                    },
+                    params: ContactParams {
+                        restitution: collisions.restitution,
+                        field: params.field,
+                        span,
+                        drift: resting_drift(params.integrator),
+                    },
                 };
-                let Some(c) = contact_ball_ball(&body(ra), &body(rb), collisions.restitution, cycle) else { continue };
-                // Both halves or neither: a ball being removed gets nothing, and neither does its
-                // partner, so the pair's momentum stays whole.
-                let inbox = |r: &BallRecord| inboxes.get(r.slot).and_then(|s| s.as_ref());
-                let (Some(tx_a), Some(tx_b)) = (inbox(ra), inbox(rb)) else { continue };
-                for (tx, r, dv, dx) in
-                    [(tx_a, ra, c.velocity_change_a, c.shift_a), (tx_b, rb, c.velocity_change_b, c.shift_b)]
-                {
-                    // Fails only if the ball's thread is gone (it panicked): counted as dropped.
-                    if tx.send(Message::Contact { dv, dx }).is_ok() {
-                        sent[r.slot].count += 1;
-                        shared.contact_messages_sent.fetch_add(1, Ordering::Relaxed);
-                    } else {
-                        shared.messages_dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
+                contacts.run(&shared, &inboxes, &records, &setting);
             }
+            // Release: every message of this pass was sent before (see `Shared::horizon`).
+            judged = end;
+            shared.horizon.store(end, Ordering::Release);
         }
+        // Relaxed: statistics.
+        let busy = pass_start.elapsed().as_nanos() as u64;
+        busy_max_ns = busy_max_ns.max(busy);
         shared.monitor_passes.fetch_add(1, Ordering::Relaxed);
-        shared.monitor_busy_ns.fetch_add(pass_start.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        shared.monitor_busy_ns.fetch_add(busy, Ordering::Relaxed);
+        shared.monitor_busy_max_ns.store(busy_max_ns, Ordering::Relaxed);
         next += period;
         let now = Instant::now();
         if next > now {
             std::thread::sleep(next - now);
         } else {
             next = now;
+        }
+    }
+}
+
+/// How a resting contact's impulse moves the ball over the span with this integrator: the
+/// solver's `drift` (see its API). Semi-implicit Euler moves with the changed velocity for the
+/// whole step (1); the second-order ones for half of it on average (½); explicit Euler moves
+/// with the old velocity (0).
+fn resting_drift(integrator: Integrator) -> f64 {
+    match integrator {
+        Integrator::SemiImplicitEuler => 1.0,
+        Integrator::ExplicitEuler => 0.0,
+        _ => 0.5,
+    }
+}
+
+/// What one pass solves over.
+struct PassSetting<'a> {
+    /// The span the pass judges (runtime clock, ns).
+    start: u64,
+    end: u64,
+    time_scale: f64,
+    motion: Motion<'a>,
+    params: ContactParams,
+}
+
+/// The contact messages sent to the ball in a slot that it has not applied yet, and how many it
+/// was sent in all (a slot is reused by a later ball, whose own counts start from zero).
+#[derive(Default)]
+struct InFlight {
+    id: Option<BallId>,
+    sent: u64,
+    /// `(sequence number, message)`, oldest first: message k is applied once the ball's `applied`
+    /// count exceeds k (a ball applies its contact messages in the order they were sent).
+    queue: VecDeque<(u64, Contact)>,
+}
+
+impl InFlight {
+    /// Forgets what the record says was applied; resets for a new ball in the slot.
+    fn sync(&mut self, r: &BallRecord) {
+        if self.id != Some(r.ball.id) {
+            *self = InFlight { id: Some(r.ball.id), sent: 0, queue: std::mem::take(&mut self.queue) };
+            self.queue.clear();
+        }
+        while self.queue.front().is_some_and(|&(k, _)| k < r.applied) {
+            self.queue.pop_front();
+        }
+    }
+}
+
+/// What a pass judged a ball's state to be at the end of its span (its response included), and
+/// of which record: while the ball publishes nothing newer, the next pass continues from here.
+#[derive(Clone, Copy)]
+struct Judged {
+    id: BallId,
+    record_time: u64,
+    record_applied: u64,
+    time: u64,
+    position: DVec2,
+    velocity: DVec2,
+}
+
+/// How a ball moves between contacts, as its own thread integrates it: its integrator, in steps
+/// no longer than the runtime's `max_step`, under its uniform acceleration (gravity, the pull)
+/// and drag (the other balls' attraction is left out: the threads take it from the tree).
+struct Motion<'a> {
+    integrator: Integrator,
+    max_step: f64,
+    drag: Option<&'a Drag>,
+    time_scale: f64,
+}
+
+impl Motion<'_> {
+    /// Moves `(x, v)` from clock instant `from` to `to` (no further than `to`; nothing if `to` is
+    /// not later).
+    #[allow(clippy::too_many_arguments)]
+    fn advance(
+        &self,
+        x: &mut DVec2,
+        v: &mut DVec2,
+        ball: &Ball,
+        a: DVec2,
+        from: u64,
+        to: u64,
+        scratch: &mut IntegratorScratch,
+    ) {
+        let dt = clock_seconds(to, from) * self.time_scale;
+        if dt.is_nan() || dt <= 0.0 {
+            return;
+        }
+        let steps = (dt / self.max_step).ceil().clamp(1.0, MAX_SUBSTEPS as f64);
+        let h = dt / steps;
+        let inverse_mass = 1.0 / ball.mass;
+        let (mut xs, mut vs) = ([*x], [*v]);
+        for _ in 0..steps as u32 {
+            integrate(self.integrator, h, &mut xs, &mut vs, self.drag.is_some(), scratch, |_, v, acc| {
+                acc[0] = a + self.drag.map_or(DVec2::ZERO, |d| drag_force(v[0], ball.diameter, d) * inverse_mass);
+            });
+        }
+        (*x, *v) = (xs[0], vs[0]);
+    }
+}
+
+/// The contact part of a pass, with the memory it reuses from pass to pass.
+struct ContactPass {
+    in_flight: Vec<InFlight>,
+    /// By slot: where the last pass left each ball.
+    judged: Vec<Option<Judged>>,
+    /// The balls at the end of the span, and which record each came from.
+    balls: Vec<SolverBall>,
+    record_of: Vec<u32>,
+    /// The circle each ball's path over the span lies in, for the broad phase.
+    centres: Vec<DVec2>,
+    reach: Vec<f64>,
+    broad_phase: BroadPhase,
+    pairs: Vec<(u32, u32)>,
+    solver: ContactSolver,
+    scratch: IntegratorScratch,
+    /// The fastest speed any ball has during this pass's span (m/s).
+    fastest: f64,
+    /// The largest distance so far between where a pass left a ball and where the ball's next
+    /// record puts it at that instant (m): how well the monitor's motion matches the threads'.
+    drift_max: f64,
+}
+
+impl ContactPass {
+    fn new(capacity: usize) -> Self {
+        ContactPass {
+            in_flight: (0..capacity).map(|_| InFlight::default()).collect(),
+            judged: vec![None; capacity],
+            balls: Vec::new(),
+            record_of: Vec::new(),
+            centres: Vec::new(),
+            reach: Vec::new(),
+            broad_phase: BroadPhase::new(),
+            pairs: Vec::new(),
+            solver: ContactSolver::new(),
+            scratch: IntegratorScratch::default(),
+            drift_max: 0.0,
+            fastest: 0.0,
+        }
+    }
+
+    fn run(&mut self, shared: &Shared, inboxes: &Inboxes, records: &[BallRecord], s: &PassSetting) {
+        let inboxes = inboxes.read();
+        let inbox = |r: &BallRecord| inboxes.get(r.slot).and_then(|s| s.as_ref());
+        let span = s.params.span;
+        self.balls.clear();
+        self.record_of.clear();
+        self.centres.clear();
+        self.reach.clear();
+        self.fastest = 0.0;
+        for (k, r) in records.iter().enumerate() {
+            let f = &mut self.in_flight[r.slot];
+            f.sync(r);
+            // A ball being removed takes part in no contact: its partners get no half-impulse
+            // it would not get.
+            if inbox(r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
+                continue;
+            }
+            let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
+            // The ball at the span's start: as the last pass left it if it has published nothing
+            // since; otherwise from its record, moved on as its thread will move it, each response
+            // in flight applied at its instant (the thread holds each to that instant, and every
+            // one in flight is for an earlier span, so before this one's start).
+            let (mut x, mut v) = match self.judged[r.slot] {
+                Some(j)
+                    if j.id == r.ball.id
+                        && j.record_time == r.time
+                        && j.record_applied == r.applied
+                        && j.time == s.start =>
+                {
+                    (j.position, j.velocity)
+                }
+                _ => {
+                    let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
+                    for (_, m) in &f.queue {
+                        if m.apply_at > t {
+                            s.motion.advance(&mut x, &mut v, &r.ball, a, t, m.apply_at, &mut self.scratch);
+                            t = m.apply_at;
+                        }
+                        v += m.dv;
+                        x += m.shift_at(t, s.time_scale);
+                    }
+                    s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
+                    // How far the ball's own motion took it from where the last pass left it.
+                    if let Some(j) = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start) {
+                        self.drift_max = self.drift_max.max(x.distance(j.position));
+                    }
+                    (x, v)
+                }
+            };
+            let x_start = x;
+            let v_start = v;
+            s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
+            self.fastest = self.fastest.max(v_start.length()).max(v.length());
+            let radius = r.ball.radius();
+            let (centre, reach) = swept_circle(x_start, x, a, span, radius);
+            self.balls.push(SolverBall {
+                id: r.ball.id,
+                position: x,
+                velocity: v,
+                acceleration: a,
+                inverse_mass: 1.0 / r.ball.mass,
+                radius,
+            });
+            self.record_of.push(k as u32);
+            self.centres.push(centre);
+            self.reach.push(reach);
+        }
+        // Every pair whose paths come within reach during the span: a superset of the pairs
+        // that touch in it, whatever their speed. A ball struck in mid-span leaves its free path:
+        // it then moves at most twice as fast as the fastest ball (an elastic strike by a much
+        // heavier one), so every path's circle grows by that much travel, and a struck ball's
+        // next contact in the span is among its pairs too. The margin keeps pairs that the
+        // solver left exactly touching (a row at rest, struck at one end).
+        let struck_travel = 2.0 * self.fastest * span;
+        for reach in &mut self.reach {
+            *reach += struck_travel;
+        }
+        self.broad_phase.set_margin(TOUCH_MARGIN);
+        let field = &s.params.field;
+        self.broad_phase.update(&self.centres, &self.reach, field.width, field.height);
+        self.pairs.clear();
+        let pairs = &mut self.pairs;
+        self.broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
+        let tally = self.solver.solve(&self.balls, &self.pairs, &s.params);
+        // Relaxed: statistics.
+        shared.contacts_solved.fetch_add(tally.contacts, Ordering::Relaxed);
+        shared.contact_impacts.fetch_add(tally.impacts, Ordering::Relaxed);
+        if !tally.converged {
+            shared.solves_unconverged.fetch_add(1, Ordering::Relaxed);
+        }
+        add_monitor_walls(shared, &tally.walls);
+        for (i, response) in self.solver.responses().iter().enumerate() {
+            let b = &self.balls[i];
+            let r = &records[self.record_of[i] as usize];
+            self.judged[r.slot] = Some(Judged {
+                id: r.ball.id,
+                record_time: r.time,
+                record_applied: r.applied,
+                time: s.end,
+                position: b.position + response.shift,
+                velocity: b.velocity + response.velocity_change,
+            });
+            if negligible(response, b.radius, span) {
+                continue;
+            }
+            let Some(tx) = inbox(r) else { continue };
+            let before_end = (response.instant / s.time_scale * 1e9).clamp(0.0, (s.end - s.start) as f64) as u64;
+            let message = Contact {
+                dv: response.velocity_change,
+                dx: response.shift,
+                stamp: s.end,
+                apply_at: s.end - before_end,
+            };
+            // Fails only if the ball's thread is gone (it panicked): counted as dropped.
+            if tx.send(Message::Contact(message)).is_ok() {
+                let f = &mut self.in_flight[r.slot];
+                f.queue.push_back((f.sent, message));
+                f.sent += 1;
+                shared.contact_messages_sent.fetch_add(1, Ordering::Relaxed);
+            } else {
+                shared.messages_dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        // Relaxed: a statistic (the monitor is its only writer).
+        shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
+    }
+}
+
+fn negligible(r: &BallResponse, radius: f64, span: f64) -> bool {
+    let tiny = NEGLIGIBLE * radius;
+    r.velocity_change.length() * span <= tiny && r.shift.length() <= tiny
+}
+
+/// Adds a pass's wall impulses to the monitor's gauge (it is the gauge's only writer).
+fn add_monitor_walls(shared: &Shared, walls: &WallImpulses) {
+    for (word, j) in shared.monitor_walls.iter().zip([walls.left, walls.right, walls.bottom, walls.top]) {
+        if j != 0.0 {
+            // Relaxed: see `Shared::monitor_walls`.
+            let total = f64::from_bits(word.load(Ordering::Relaxed)) + j;
+            word.store(total.to_bits(), Ordering::Relaxed);
+        }
+    }
+}
+
+/// A stand-in for `physics::ContactSolver` (being written beside this; same shape, so the call
+/// above changes by its `use` line only): every contact of a set of balls at the end of a span
+/// of free motion, solved with today's pair and wall responses.
+///
+/// 1. Walls first when a pile must be stood on the floor (inelastic, under gravity), as lockstep
+///    does: `contact_ball_wall` replays a crossing along its parabola.
+/// 2. Impacts: every pair that was apart at the span's start and touched in it (found by
+///    rewinding the relative motion, `impact_before_end`: even if the free motion took them
+///    through each other), in the order they happened, each struck once along the normal at its
+///    instant and replayed from it (the shift Δv·s). A pair whose earlier impact changed a
+///    partner's path is judged again on the new path.
+/// 3. Ongoing contacts: Gauss–Seidel passes of `contact_ball_ball` over the pairs still
+///    overlapping, then lockstep's support pass for inelastic piles under gravity, then (elastic
+///    fields) the walls.
+mod stand_in {
+    use glam::DVec2;
+
+    use crate::physics::{
+        BallId, ContactBody, Field, WallImpulses, clamp_to_field, contact_ball_ball, contact_ball_wall,
+        contact_supported, impact_before_end, wall_impact_before_end,
+    };
+
+    /// Gauss–Seidel passes over the ongoing contacts (lockstep's `CONTACT_ITERATIONS`).
+    const ITERATIONS: usize = 4;
+    /// Rounds of impacts: a pair whose partner was struck in one round is judged again in the
+    /// next, up to this many.
+    const IMPACT_ROUNDS: usize = 4;
+
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct SolverBall {
+        pub id: BallId,
+        pub position: DVec2,
+        pub velocity: DVec2,
+        pub acceleration: DVec2,
+        pub inverse_mass: f64,
+        pub radius: f64,
+    }
+
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ContactParams {
+        pub restitution: f64,
+        pub field: Field,
+        pub span: f64,
+        pub drift: f64,
+    }
+
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct BallResponse {
+        pub velocity_change: DVec2,
+        pub shift: DVec2,
+        pub instant: f64,
+    }
+
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct SolveTally {
+        pub walls: WallImpulses,
+        pub contacts: u64,
+        pub impacts: u64,
+        pub converged: bool,
+    }
+
+    #[derive(Default)]
+    pub struct ContactSolver {
+        x: Vec<DVec2>,
+        v: Vec<DVec2>,
+        /// How long before the span's end each ball's last impact in this call was (its path
+        /// before that is not the rewound one).
+        last_impact: Vec<f64>,
+        responses: Vec<BallResponse>,
+        impacts: Vec<(f64, u32)>,
+        support: Vec<(f64, u32, u32)>,
+    }
+
+    impl ContactSolver {
+        pub fn new() -> Self {
+            Self::default()
+        }
+
+        pub fn responses(&self) -> &[BallResponse] {
+            &self.responses
+        }
+
+        pub fn solve(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], p: &ContactParams) -> SolveTally {
+            let n = balls.len();
+            let mut tally = SolveTally { converged: true, ..SolveTally::default() };
+            self.x.clear();
+            self.x.extend(balls.iter().map(|b| b.position));
+            self.v.clear();
+            self.v.extend(balls.iter().map(|b| b.velocity));
+            self.last_impact.clear();
+            self.last_impact.resize(n, p.span);
+            self.responses.clear();
+            self.responses.resize(n, BallResponse::default());
+            let gravity = balls.iter().map(|b| b.acceleration).find(|a| *a != DVec2::ZERO).unwrap_or(DVec2::ZERO);
+            let support = p.restitution < 1.0 && gravity != DVec2::ZERO;
+            if support {
+                self.walls(balls, &p.field, p.span, &mut tally);
+            }
+            self.impacts(balls, pairs, p, &mut tally);
+            self.ongoing(balls, pairs, p, &mut tally);
+            if support {
+                self.support_pass(balls, pairs, -gravity.normalize(), &p.field);
+            } else {
+                self.walls(balls, &p.field, p.span, &mut tally);
+            }
+            for (i, b) in balls.iter().enumerate() {
+                let r = &mut self.responses[i];
+                r.velocity_change = self.v[i] - b.velocity;
+                r.shift = self.x[i] - b.position;
+                if r.instant == 0.0 && (r.velocity_change != DVec2::ZERO || r.shift != DVec2::ZERO) {
+                    // Only resting contacts: as of the span's start.
+                    r.instant = p.span;
+                }
+            }
+            tally
+        }
+
+        fn body(&self, balls: &[SolverBall], i: usize) -> ContactBody {
+            let b = &balls[i];
+            ContactBody {
+                id: b.id,
+                position: self.x[i],
+                velocity: self.v[i],
+                inverse_mass: b.inverse_mass,
+                radius: b.radius,
+            }
+        }
+
+        fn walls(&mut self, balls: &[SolverBall], field: &Field, span: f64, tally: &mut SolveTally) {
+            for (i, b) in balls.iter().enumerate() {
+                let (x, v, a, r) = (self.x[i], self.v[i], b.acceleration, b.radius);
+                let crossed = [
+                    wall_impact_before_end(x.x - r, v.x, a.x, span),
+                    wall_impact_before_end(field.width - r - x.x, -v.x, -a.x, span),
+                    wall_impact_before_end(x.y - r, v.y, a.y, span),
+                    wall_impact_before_end(field.height - r - x.y, -v.y, -a.y, span),
+                ];
+                let mass = 1.0 / b.inverse_mass;
+                let (x, v) = (&mut self.x[i], &mut self.v[i]);
+                if contact_ball_wall(x, v, r, mass, a, field, &mut tally.walls) {
+                    tally.contacts += 1;
+                    let first = crossed.into_iter().flatten().fold(0.0f64, f64::max);
+                    if first > 0.0 {
+                        tally.impacts += 1;
+                        let inst = &mut self.responses[i].instant;
+                        *inst = inst.max(first);
+                    }
+                }
+            }
+        }
+
+        /// How far back pair (i, j) may be rewound (to the later of their last impacts in this
+        /// call, before which their paths are not the rewound ones), and the reach to judge it
+        /// by: after an impact, a pair that touches at that very instant (a cradle: struck on
+        /// from the other side) must count as apart there, not as overlapping by a rounding.
+        fn judged_reach(&self, balls: &[SolverBall], i: usize, j: usize, span: f64) -> (f64, f64) {
+            let within = self.last_impact[i].min(self.last_impact[j]);
+            let reach = balls[i].radius + balls[j].radius;
+            (within, if within < span { reach * (1.0 - 1e-12) } else { reach })
+        }
+
+        fn impacts(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], p: &ContactParams, tally: &mut SolveTally) {
+            let (e, span) = (p.restitution, p.span);
+            for round in 0..IMPACT_ROUNDS {
+                // Every pair's impact on the paths as they are now, earliest first.
+                self.impacts.clear();
+                for (k, &(i, j)) in pairs.iter().enumerate() {
+                    let (i, j) = (i as usize, j as usize);
+                    let (within, reach) = self.judged_reach(balls, i, j, span);
+                    let (d, u) = (self.x[j] - self.x[i], self.v[j] - self.v[i]);
+                    if let Some(s) = impact_before_end(d, u, reach, within) {
+                        self.impacts.push((s, k as u32));
+                    }
+                }
+                if self.impacts.is_empty() {
+                    return;
+                }
+                if round + 1 == IMPACT_ROUNDS {
+                    tally.converged = false;
+                }
+                self.impacts.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+                for k in 0..self.impacts.len() {
+                    let (_, pair) = self.impacts[k];
+                    let (i, j) = pairs[pair as usize];
+                    let (i, j) = (i as usize, j as usize);
+                    // Judged again: an earlier impact of this round may have moved either path.
+                    let (within, reach) = self.judged_reach(balls, i, j, span);
+                    let (d, u) = (self.x[j] - self.x[i], self.v[j] - self.v[i]);
+                    let Some(s) = impact_before_end(d, u, reach, within) else { continue };
+                    let at = d - u * s;
+                    let normal = at / at.length();
+                    let v_rel = u.dot(normal);
+                    if v_rel.is_nan() || v_rel >= 0.0 {
+                        continue;
+                    }
+                    let (wi, wj) = (balls[i].inverse_mass, balls[j].inverse_mass);
+                    let impulse = -(1.0 + e) * v_rel / (wi + wj);
+                    let (dvi, dvj) = (-impulse * wi * normal, impulse * wj * normal);
+                    self.v[i] += dvi;
+                    self.v[j] += dvj;
+                    self.x[i] += dvi * s;
+                    self.x[j] += dvj * s;
+                    self.last_impact[i] = s;
+                    self.last_impact[j] = s;
+                    for m in [i, j] {
+                        let inst = &mut self.responses[m].instant;
+                        *inst = inst.max(s);
+                    }
+                    tally.impacts += 1;
+                    tally.contacts += 1;
+                }
+            }
+        }
+
+        fn ongoing(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], p: &ContactParams, tally: &mut SolveTally) {
+            for pass in 0..ITERATIONS {
+                let mut active = 0u64;
+                for &(i, j) in pairs {
+                    let (i, j) = (i as usize, j as usize);
+                    let Some(c) = contact_ball_ball(&self.body(balls, i), &self.body(balls, j), p.restitution, 0.0)
+                    else {
+                        continue;
+                    };
+                    self.v[i] += c.velocity_change_a;
+                    self.v[j] += c.velocity_change_b;
+                    self.x[i] += c.shift_a;
+                    self.x[j] += c.shift_b;
+                    active += 1;
+                }
+                if pass == 0 {
+                    tally.contacts += active;
+                }
+                if active == 0 {
+                    return;
+                }
+            }
+        }
+
+        fn support_pass(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], up: DVec2, field: &Field) {
+            for (i, b) in balls.iter().enumerate() {
+                clamp_to_field(&mut self.x[i], &mut self.v[i], b.radius, field);
+            }
+            self.support.clear();
+            for &(i, j) in pairs {
+                let (hi, hj) = (up.dot(self.x[i as usize]), up.dot(self.x[j as usize]));
+                self.support.push(if hi <= hj { (hi, i, j) } else { (hj, j, i) });
+            }
+            self.support.sort_unstable_by(|a, c| a.0.total_cmp(&c.0).then(a.1.cmp(&c.1)).then(a.2.cmp(&c.2)));
+            for k in 0..self.support.len() {
+                let (_, lower, upper) = self.support[k];
+                let (l, u) = (lower as usize, upper as usize);
+                if let Some((dv, shift)) = contact_supported(&self.body(balls, l), &self.body(balls, u), up) {
+                    self.v[u] += dv;
+                    self.x[u] += shift;
+                    clamp_to_field(&mut self.x[u], &mut self.v[u], balls[u].radius, field);
+                }
+            }
         }
     }
 }

@@ -1,13 +1,13 @@
 //! What the runtime's threads share: the table, the parameters, the flags and the counters.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use parking_lot::RwLock;
 
 use super::attraction_tree::PublishedTree;
 use super::table::BallTable;
-use crate::physics::{Effects, Field, Integrator};
+use crate::physics::{Effects, Field, Integrator, WallImpulses};
 
 /// How the threaded runtime runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,13 +51,42 @@ pub struct Params {
 pub(crate) struct Shared {
     pub config: RuntimeConfig,
     /// The instant the runtime started: ball cycles are aligned to it.
-    pub epoch: std::time::Instant,
+    pub epoch: Instant,
     pub table: BallTable,
     pub params: RwLock<Params>,
     /// Bumped (Release) after every change of `params`; ball threads poll it (Acquire) once per
     /// cycle and take the read lock only when it moved — the hot path never locks.
     pub params_generation: AtomicU64,
     pub paused: AtomicBool,
+    /// The runtime's clock (see [`Shared::clock`]): wall time since `epoch` less this, ns. Only
+    /// the monitor raises it, by the time nobody simulated: while paused, and when it woke too
+    /// late to have watched the contacts meanwhile (a stalled process). Store Release, load
+    /// Acquire: a ball that reads a horizon (Acquire, below) then this offset sees at least the
+    /// offset the monitor stored before that horizon, so it never sees a horizon of the new
+    /// clock with the old offset.
+    pub clock_offset: AtomicU64,
+    /// The instant (runtime clock, ns) up to which the monitor has judged every contact: no ball
+    /// integrates past it (see `ball_thread::run_ball`). Stored with Release after the pass has
+    /// sent its messages; a ball loads it with Acquire before it empties its inbox, so every
+    /// message of that pass is in the inbox by then.
+    pub horizon: AtomicU64,
+    /// Wall impulses of the contacts the monitor solved (walls are contacts in its solver), as
+    /// f64 bits, left, right, bottom, top. The monitor is the only writer (Relaxed: a gauge read
+    /// only for reports, each word whole).
+    pub monitor_walls: [AtomicU64; 4],
+    /// Wall time the monitor's clock dropped (ns): paused time is not counted here, only passes
+    /// that came too late to be watched (see `monitor::MAX_ADVANCE`). Relaxed: a statistic.
+    pub clock_dropped_ns: AtomicU64,
+    /// Ball cycles that stopped short of the time they woke at because the monitor's horizon was
+    /// behind it (the monitor was late or the process stalled). Relaxed: a statistic.
+    pub horizon_waits: AtomicU64,
+    /// `RuntimeStats::judged_drift_max` as f64 bits (the monitor is its only writer; Relaxed: a
+    /// statistic).
+    pub judged_drift_max: AtomicU64,
+    /// Contact responses a ball applied after the instant they were for (it had integrated past
+    /// it before the message came: only a ball placed ahead of the monitor's horizon can).
+    /// Relaxed: a statistic.
+    pub responses_late: AtomicU64,
     /// Cleared to stop the monitor.
     pub monitor_running: AtomicBool,
     /// Every occupied slot is below this. Raised (Release) by the runtime after it has written
@@ -69,8 +98,14 @@ pub(crate) struct Shared {
     pub monitor_passes: AtomicU64,
     /// Wall time the monitor spent inside its passes (not sleeping), ns.
     pub monitor_busy_ns: AtomicU64,
+    /// The longest pass so far, ns (the monitor is its only writer).
+    pub monitor_busy_max_ns: AtomicU64,
     pub contact_messages_sent: AtomicU64,
-    pub contacts_deferred: AtomicU64,
+    /// Contacts (pairs and walls) the monitor's solver found touching, those that got an
+    /// impact (restitution) impulse, and the solves that hit an iteration cap.
+    pub contacts_solved: AtomicU64,
+    pub contact_impacts: AtomicU64,
+    pub solves_unconverged: AtomicU64,
     pub messages_dropped: AtomicU64,
     /// The ball threads' guard rails (see `Lockstep`'s): speeds capped at `MAX_SPEED`, and cycles
     /// whose drag had its rate capped at 1/h. Relaxed: plain counters, touched only when a rail
@@ -103,18 +138,28 @@ impl Shared {
     pub fn new(config: RuntimeConfig, params: Params) -> Self {
         Shared {
             config,
-            epoch: std::time::Instant::now(),
+            epoch: Instant::now(),
             table: BallTable::new(config.max_balls),
             params: RwLock::new(params),
             params_generation: AtomicU64::new(0),
             paused: AtomicBool::new(false),
+            clock_offset: AtomicU64::new(0),
+            horizon: AtomicU64::new(0),
+            monitor_walls: std::array::from_fn(|_| AtomicU64::new(0)),
+            clock_dropped_ns: AtomicU64::new(0),
+            horizon_waits: AtomicU64::new(0),
+            judged_drift_max: AtomicU64::new(0),
+            responses_late: AtomicU64::new(0),
             monitor_running: AtomicBool::new(true),
             high_water: AtomicUsize::new(0),
             panicked: AtomicU64::new(0),
             monitor_passes: AtomicU64::new(0),
             monitor_busy_ns: AtomicU64::new(0),
+            monitor_busy_max_ns: AtomicU64::new(0),
             contact_messages_sent: AtomicU64::new(0),
-            contacts_deferred: AtomicU64::new(0),
+            contacts_solved: AtomicU64::new(0),
+            contact_impacts: AtomicU64::new(0),
+            solves_unconverged: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),
             speed_limited: AtomicU64::new(0),
             drag_limited: AtomicU64::new(0),
@@ -134,6 +179,20 @@ impl Shared {
     pub fn pack_cycle(dt: f64, steps: u64) -> u64 {
         let ns = (dt * 1e9).clamp(0.0, ((1u64 << 48) - 1) as f64) as u64;
         (ns << 16) | steps.min(0xFFFF)
+    }
+
+    /// The runtime clock at `t` (ns): wall time since the epoch, less the time the monitor
+    /// dropped (see `clock_offset`). It may step back when the monitor drops time; every
+    /// instant in the table, in a contact message and in `horizon` is on this clock.
+    pub fn clock(&self, t: Instant) -> u64 {
+        let wall = t.saturating_duration_since(self.epoch).as_nanos() as u64;
+        wall.saturating_sub(self.clock_offset.load(Ordering::Acquire))
+    }
+
+    /// The impulse each wall took in the contacts the monitor solved.
+    pub fn monitor_wall_impulses(&self) -> WallImpulses {
+        let w = |k: usize| f64::from_bits(self.monitor_walls[k].load(Ordering::Relaxed));
+        WallImpulses { left: w(0), right: w(1), bottom: w(2), top: w(3) }
     }
 
     pub fn update_params(&self, f: impl FnOnce(&mut Params)) {

@@ -34,7 +34,7 @@ use super::sync::{AtomicU64, Ordering, fence, spin_loop};
 use crate::physics::{Ball, BallId, BallKind, WallImpulses};
 
 /// Words in a slot besides the sequence number.
-const WORDS: usize = 13;
+const WORDS: usize = 16;
 // Word indices.
 const W_ID: usize = 0; // id + 1 with bit 63 set for the key ball; 0 = empty slot
 const W_X: usize = 1;
@@ -46,6 +46,9 @@ const W_DIAMETER: usize = 6;
 const W_APPLIED: usize = 7; // monitor messages this ball has applied
 const W_UPDATES: usize = 8; // cycles this ball has completed
 const W_WALL: usize = 9; // 9..13: wall impulses left, right, bottom, top
+const W_TIME: usize = 13; // the runtime clock instant the state is of (see `Shared::clock`)
+const W_AX: usize = 14; // the ball's uniform acceleration (gravity + its pull / mass)
+const W_AY: usize = 15;
 
 const KEY_BIT: u64 = 1 << 63;
 
@@ -60,6 +63,12 @@ pub struct BallRecord {
     pub updates: u64,
     /// Impulse each wall took from this ball so far.
     pub wall_impulses: WallImpulses,
+    /// The instant this state is of, on the runtime's clock (ns; see [`crate::runtime`]): the
+    /// monitor extrapolates every ball from its own instant to a common one.
+    pub time: u64,
+    /// The ball's uniform acceleration (m/s²: gravity, plus the pull over the mass for the key
+    /// ball), for that extrapolation.
+    pub acceleration: DVec2,
 }
 
 /// One latched seqlock over `N` words (the table uses `N = WORDS`; the loom model also checks it
@@ -141,6 +150,9 @@ impl BallTable {
         for (k, v) in [wi.left, wi.right, wi.bottom, wi.top].into_iter().enumerate() {
             w[W_WALL + k] = v.to_bits();
         }
+        w[W_TIME] = record.time;
+        w[W_AX] = record.acceleration.x.to_bits();
+        w[W_AY] = record.acceleration.y.to_bits();
         self.slots[slot].write_words(&w);
     }
 
@@ -176,6 +188,8 @@ impl BallTable {
                 bottom: f(W_WALL + 2),
                 top: f(W_WALL + 3),
             },
+            time: raw[W_TIME],
+            acceleration: DVec2::new(f(W_AX), f(W_AY)),
         })
     }
 

@@ -1,0 +1,137 @@
+//! Stalls on the threaded runtime are harmless: a ball thread that wakes late does not integrate
+//! through its contacts, and a stall of the whole process is a pause.
+
+use std::process::Command;
+use std::time::Duration;
+
+use ballfield::Scene;
+use ballfield::physics::{Ball, BallId, BallKind};
+use ballfield::runtime::{BallRecord, Runtime, RuntimeConfig};
+use ballfield::scene::Origin;
+use glam::DVec2;
+
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Five 1 kg balls of 1 m resting in a column on the floor of a 10 m field; everything elastic.
+const STACK: &str = "name = \"stack\"\n[field]\nwidth = 10.0\nheight = 10.0\nrestitution = 1.0\n\
+    [effects]\ncollisions = { restitution = 1.0 }\ngravity = { g = [0.0, -9.81] }\n";
+
+fn stack_scene() -> Scene {
+    let mut s = Scene::from_toml_str(STACK, &Origin("test".into())).unwrap();
+    s.balls = (0..5)
+        .map(|k| Ball {
+            id: BallId(k),
+            kind: BallKind::Ball,
+            position: DVec2::new(5.0, 0.5 + k as f64),
+            velocity: DVec2::ZERO,
+            mass: 1.0,
+            diameter: 1.0,
+        })
+        .collect();
+    s
+}
+
+fn energy(records: &[BallRecord]) -> f64 {
+    records
+        .iter()
+        .map(|r| 0.5 * r.ball.mass * r.ball.velocity.length_squared() + r.ball.mass * 9.81 * r.ball.position.y)
+        .sum()
+}
+
+fn largest_overlap(records: &[BallRecord]) -> f64 {
+    let mut worst = 0.0f64;
+    for (k, a) in records.iter().enumerate() {
+        for b in &records[k + 1..] {
+            let reach = a.ball.radius() + b.ball.radius();
+            worst = worst.max(reach - a.ball.position.distance(b.ball.position));
+        }
+    }
+    worst
+}
+
+/// The whole process stopped for 0.5 s (SIGSTOP, then SIGCONT) while the stack rests: a headless
+/// run of the binary, stopped from here. Every thread wakes at once after the gap; the balls find
+/// the monitor's horizon where it was and wait, and the monitor drops the gap from the clock, as
+/// a pause would. The stack's energy at the end (the run's report) is its energy at the start
+/// within 1e-3 (the issue asks 1 %), and no ball sinks into another.
+///
+/// Measured (four runs, a busy machine): |ΔE|/E 2e-6 to 2.6e-5, largest overlap up to 1.5e-4 m,
+/// 0.50 to 0.75 s dropped. The runtime before this change gained 26 % to 36 % (a late cycle
+/// integrated the whole gap with contacts off and the push-apart kept the fall speed). Seen to
+/// fail with the balls integrating to the clock past the horizon (`catch_up(clock, …)` in
+/// `run_ball`): +46 %.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_stall_of_the_whole_process_leaves_a_resting_stack_as_it_was() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("ballfield-stall-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("stack.toml");
+    let mut text = STACK.to_string();
+    for k in 0..5 {
+        text += &format!("[[balls]]\nposition = [5.0, {}]\nmass = 1.0\ndiameter = 1.0\n", 0.5 + k as f64);
+    }
+    std::fs::write(&scene, text).unwrap();
+    let report = dir.join("report.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ballfield"))
+        .arg("--scene")
+        .arg(&scene)
+        .args(["headless", "--engine", "threaded", "--duration", "2.5", "-q", "--report"])
+        .arg(&report)
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1000));
+    let pid = child.id() as libc::pid_t;
+    // SAFETY: kill takes no pointers; `pid` is our own child, not yet waited for, so the id
+    // cannot have been reused.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGSTOP) }, 0);
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGCONT) }, 0);
+    assert!(child.wait().unwrap().success());
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let f = |path: &str| r.pointer(path).and_then(|v| v.as_f64()).unwrap_or_else(|| panic!("{path} in {r}"));
+    let (start, end) = (f("/start/total"), f("/end/total"));
+    let change = (end - start).abs() / start;
+    let overlap = f("/end/largest_overlap");
+    let dropped = f("/runtime/clock_dropped_seconds");
+    eprintln!("process stall: energy {start} -> {end} ({change:e}), overlap {overlap:e}, dropped {dropped} s");
+    assert!(dropped >= 0.45, "the stall was dropped from the clock ({dropped} s)");
+    assert!(change < 1e-3, "energy {start} -> {end}");
+    assert!(overlap < 1e-3, "overlap {overlap} m");
+}
+
+/// One ball in the middle of the resting stack stalls for 0.3 s (the test hook: its thread
+/// sleeps). The monitor keeps judging it from its last record and its responses pile up in its
+/// inbox; when it wakes it catches up, applying each at its own instant, so it stays where the
+/// stack holds it. Energy within 1e-4 of before, no overlap beyond 1e-3 m.
+///
+/// Measured: |ΔE|/E 1e-6 to 7e-6, largest overlap 1e-4 m, no response applied late. Seen to fail
+/// with the held responses all applied at once when the ball wakes (the `catch_up` loop never
+/// advancing to a response's instant): |ΔE|/E 7e-4; and with the balls integrating past the
+/// horizon: responses applied late.
+#[test]
+fn a_stalled_ball_in_a_stack_stays_where_the_stack_holds_it() {
+    let _serial = serial();
+    let rt = Runtime::start(&stack_scene(), RuntimeConfig::default()).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(rt.settle(Duration::from_secs(5)));
+    let before = rt.snapshot();
+    rt.resume();
+    rt.inject_stall(rt.ball_ids()[2], Duration::from_millis(300)).unwrap();
+    std::thread::sleep(Duration::from_millis(600));
+    assert!(rt.settle(Duration::from_secs(5)));
+    let after = rt.snapshot();
+    let (e0, e1) = (energy(&before), energy(&after));
+    let overlap = largest_overlap(&after);
+    let stats = rt.stats();
+    eprintln!("ball stall: energy {e0} -> {e1} ({:e}), overlap {overlap:e}; {stats:?}", (e1 - e0).abs() / e0);
+    assert!((e1 - e0).abs() < 1e-4 * e0, "energy {e0} -> {e1}");
+    assert!(overlap < 1e-3, "overlap {overlap} m");
+    assert_eq!(stats.responses_late, 0);
+}
