@@ -203,6 +203,38 @@ fn pause_stops_time_and_resume_continues() {
     assert_ne!(a, c);
 }
 
+/// A command given while paused takes effect at the paused instant. When the pause is asked for,
+/// a ball may still be behind the monitor's horizon (a ball thread stalled, or simply a cycle
+/// behind), and it catches up to the horizon before it stands still; a velocity set meanwhile is
+/// the velocity the paused table shows, not one the catch-up has since changed. Here the ball's
+/// thread is stalled for 0.3 s across the pause (asked for 50 ms into the stall), so the throw
+/// waits in its inbox while the ball is some 50 ms behind the horizon: the table must show
+/// exactly the thrown velocity, at the horizon.
+///
+/// Measured: exactly (3, 0). Seen to fail with the throw applied as it is taken from the inbox,
+/// before the catch-up (as the runtime did): (3, -0.52), 53 ms of gravity later.
+#[test]
+fn a_velocity_set_while_paused_is_the_paused_velocity() {
+    let _serial = serial();
+    let s = scene(
+        "name = \"throw-while-paused\"\n[effects]\ngravity = {}\n\
+         [[balls]]\nposition = [35.0, 25.0]\nmass = 1.0\ndiameter = 1.0\n",
+    );
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    let id = rt.ball_ids()[0];
+    rt.inject_stall(id, Duration::from_millis(300)).unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    rt.pause();
+    // The monitor's last pass is over: the horizon stands while the ball is still stalled.
+    std::thread::sleep(Duration::from_millis(20));
+    let thrown = DVec2::new(3.0, 0.0);
+    rt.set_velocity(id, thrown).unwrap();
+    assert!(rt.settle(Duration::from_secs(60)), "the ball caught up: {:?}", rt.stats());
+    let b = rt.snapshot()[0].ball;
+    assert_eq!(b.velocity, thrown, "the thrown velocity, as of the paused instant: {b:?}");
+    assert!(b.position.y < 25.0, "the ball fell during its catch-up: {b:?}");
+}
+
 /// Hard case 7, time spike: a ball thread stalled for 0.5 s (its next dt is 0.5 s) sub-steps it:
 /// it does not tunnel through the floor and its energy does not jump. The runtime's figures show
 /// the spike itself: a cycle at least as long as the stall (the stall sleeps inside the cycle's
@@ -256,8 +288,11 @@ fn a_stalled_ball_sub_steps_its_long_dt() {
 /// The lockstep engine's fuzz finding (tests/fuzz.rs, seed 12) on this runtime: a 1.6 g ball of
 /// 2.2 m with a 2e5 kg grain passing inside it (G = 1), under drag, is pulled hard enough that
 /// its drag turns stiff within a cycle. Its thread judges its sub-steps by the drag rate at the
-/// terminal speed the grain drives it to, as the lockstep split does; a 0.3 s stall on it makes
-/// the cycle long (the sub-step floor). Nothing becomes NaN, nothing leaves the field.
+/// terminal speed the grain drives it to, as the lockstep split does, re-judged before every
+/// sub-step; a 0.3 s stall on it makes the cycle long (the sub-step floor). Nothing becomes NaN,
+/// nothing leaves the field. Under load (two busy loops on the two cores) this went non-finite
+/// in 2 of 30 runs while the split was judged once per cycle: a starved ball thread's long
+/// catch-up carried it into stiff drag (see the next test, which makes that happen every run).
 #[test]
 fn a_light_ball_pulled_hard_into_its_drag_stays_finite() {
     let _serial = serial();
@@ -283,4 +318,93 @@ fn a_light_ball_pulled_hard_into_its_drag_stays_finite() {
     assert_eq!(balls.len(), rows.len());
     assert!(balls.iter().all(|b| b.position.is_finite() && b.velocity.is_finite()), "{balls:?}");
     check_inside(&s.field, &balls);
+}
+
+/// The mechanism behind the previous test's flake, made to happen every run: a ball thread that
+/// wakes late catches up in one long cycle, with the other balls held where they were published,
+/// and on the way its rates change. A 1.6 g ball of 2.2 m starts at rest 3.5 m from a 5e5 kg
+/// grain of 1.5 mm (G = 1, quadratic drag, Yoshida's method) and its thread stalls for 0.3 s at
+/// once, so its first cycle is the whole stall. It creeps into the grain at the terminal speed the
+/// pull drives it to; its drag rate at that speed grows from 5.3e3/s where it starts to 1.7e4/s
+/// at contact. Sub-steps sized once by the cycle's start let the explicit stages overshoot (rate·h
+/// up to 1.6), the speed hit the 1e5 m/s rail and the ball went to NaN, the grain after it through
+/// attraction. Judged before each sub-step, the split follows the rate down to the cycle's floor,
+/// where the drag guard rail holds it. (On a loaded machine the monitor may come late during the
+/// stall and the clock drop part of it; the ball then creeps in over ordinary cycles instead, and
+/// the checks hold all the same.)
+///
+/// Measured: the ball ends 2e-5 m from the grain's centre (it sinks into the pull and drag stops
+/// it), no speed capped, a cycle of 0.298 s in 3,958 sub-steps; under two busy loops, 30 of 30
+/// runs passed. Seen to fail, every one of six runs, with the split judged once per cycle
+/// (`judge_split` at the cycle's start and all its sub-steps taken at that `h`, as before this
+/// test): both balls NaN, 3,439 speeds capped.
+#[test]
+fn a_late_cycle_that_creeps_into_stiff_drag_stays_finite() {
+    let _serial = serial();
+    let s = scene(
+        "name = \"creep-into-drag\"\n[field]\nwidth = 20.0\nheight = 10.0\n\
+         [simulation]\nintegrator = \"yoshida4\"\n[effects]\ndrag = {}\nattraction = { g-constant = 1.0 }\n",
+    );
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    let grain = rt.add_ball(common::ball(0, 12.0, 5.0, 0.0, 0.0, 5e5, 1.5e-3)).unwrap();
+    let light = rt.add_ball(common::ball(0, 8.5, 5.0, 0.0, 0.0, 1.6e-3, 2.2)).unwrap();
+    rt.inject_stall(light, Duration::from_millis(300)).unwrap();
+    let pair = |rt: &Runtime| {
+        let records = rt.snapshot();
+        let find = |id: BallId| records.iter().find(|r| r.ball.id == id).map(|r| r.ball);
+        (find(grain).unwrap(), find(light).unwrap())
+    };
+    // Until the light ball has sunk into the grain (or gone non-finite), however long a loaded
+    // machine keeps its thread waiting (the ball threads are SCHED_IDLE).
+    wait_until(Duration::from_secs(120), || {
+        let (g, b) = pair(&rt);
+        let gap = b.position.distance(g.position);
+        gap < 0.01 || !gap.is_finite()
+    });
+    assert!(rt.settle(Duration::from_secs(120)), "the balls caught up: {:?}", rt.stats());
+    let (g, b) = pair(&rt);
+    let stats = rt.stats();
+    eprintln!("creep: grain {g:?}, light {b:?}; {stats:?}");
+    check_inside(&s.field, &[g, b]);
+    assert_eq!(stats.speed_limited, 0, "no speed reached the guard rail");
+    let gap = b.position.distance(g.position);
+    assert!(gap < 0.01, "the light ball sank into the grain's pull and stopped there: {gap} m off");
+}
+
+/// The monitor's own view of a ball's motion is sub-stepped by the step policy too. With
+/// collisions on, each pass carries every ball from its record to the end of the span the way its
+/// thread will integrate it, drag included; six 1.6 g balls of 2.2 m thrown at 300 m/s meet drag
+/// at a rate of 2e5/s, and the monitor's fixed steps of up to 2 ms (rate·h of hundreds) ran away
+/// to NaN within the first passes and sent it to every ball as its "response". Judged before each
+/// sub-step, the monitor's motion stays finite, the balls get no response at all (they never
+/// touch: drag stops them within centimetres), and each falls at its terminal speed.
+///
+/// Measured: every ball at 0.11976 m/s down, the terminal speed to 2e-16, no message sent. Seen
+/// to fail with `Motion::advance` in fixed steps of at most `max_step` (as before this test): all
+/// six balls NaN after 18 messages.
+#[test]
+fn a_stiff_drag_field_with_collisions_stays_finite() {
+    let _serial = serial();
+    let s = scene(
+        "name = \"stiff-drag\"\n[field]\nwidth = 20.0\nheight = 10.0\nrestitution = 0.0\n\
+         [simulation]\nintegrator = \"yoshida4\"\n[effects]\ncollisions = {}\ngravity = {}\ndrag = {}\n",
+    );
+    let rt = Runtime::start(&s, RuntimeConfig::default()).unwrap();
+    let (mass, diameter) = (1.6e-3, 2.2);
+    for k in 0..6 {
+        let vx = if k % 2 == 0 { 300.0 } else { -300.0 };
+        rt.add_ball(common::ball(0, 2.0 + 3.0 * k as f64, 5.0, vx, 50.0, mass, diameter)).unwrap();
+    }
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(rt.settle(Duration::from_secs(60)), "the balls caught up: {:?}", rt.stats());
+    let balls: Vec<Ball> = rt.snapshot().iter().map(|r| r.ball).collect();
+    let stats = rt.stats();
+    eprintln!("stiff drag: {balls:?}; {stats:?}");
+    check_inside(&s.field, &balls);
+    let Some(ballfield::physics::Drag::Quadratic { rho, cd }) = s.effects.drag else { panic!("quadratic drag") };
+    let terminal = ballfield::physics::quadratic_terminal_speed(mass, diameter, 9.81, rho, cd);
+    for b in &balls {
+        assert!((b.velocity - DVec2::new(0.0, -terminal)).length() < 1e-12 * terminal, "{b:?}: v_t {terminal}");
+    }
+    assert_eq!(stats.impulses_sent, 0, "the balls never touched");
 }

@@ -264,9 +264,9 @@ fn new_parameters_reach_the_balls_through_a_new_tree() {
     let (scene, centre, probe) = cluster_and_probe(1.0);
     let rt = Runtime::start(&scene, RuntimeConfig::default()).unwrap();
     assert!(wait_until(Duration::from_secs(5), || rt.stats().tree_builds > 20), "no tree built");
-    // Paused: the new G, and the probe stopped where it is (messages land while paused); its
-    // fall from rest is measured from there.
-    rt.pause();
+    // Paused, every ball caught up to the horizon: the new G, and the probe stopped where it is
+    // (messages land while paused); its fall from rest is measured from there.
+    assert!(rt.settle(Duration::from_secs(60)), "the balls caught up: {:?}", rt.stats());
     let mut effects = rt.params().effects;
     effects.attraction.as_mut().unwrap().g_constant = 2.0;
     rt.set_effects(effects);

@@ -159,6 +159,8 @@ impl BallState {
 
 enum Handled {
     Continue,
+    /// The thread slept (the stall test hook).
+    Stalled,
     Stop,
 }
 
@@ -196,35 +198,36 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
     let mut scratch = CycleScratch::new(&params.effects);
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
+    // Commands taken from the inbox and not yet in effect (see `Commands`).
+    let mut commands = Commands::default();
     loop {
         // Wait for the next cycle, then take what arrived meanwhile. The horizon is read before
         // the inbox (Acquire; see `Shared::horizon`): every contact message of the pass that
-        // published it is in the inbox by then.
+        // published it is in the inbox by then. A stall (the test hook sleeps while the inbox is
+        // taken) ends with both read again: the cycle starts after it, as it would after a stall
+        // of the thread before the cycle.
         let mut now = waiter.wait(last);
-        let horizon = shared.horizon.load(Ordering::Acquire);
         let mut received = false;
-        loop {
-            match inbox.try_recv() {
-                Ok(message) => {
+        let horizon = loop {
+            let horizon = shared.horizon.load(Ordering::Acquire);
+            match take_inbox(&inbox, &mut state, &mut commands) {
+                Inbox::Quiet => break horizon,
+                Inbox::Received => {
                     received = true;
-                    if let Handled::Stop = handle(message, &mut state) {
-                        state.publish(&shared, &params);
-                        state.flush_counts(&shared);
-                        return;
-                    }
+                    break horizon;
                 }
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => {
+                Inbox::Stalled => {
+                    received = true;
+                    now = Instant::now();
+                }
+                Inbox::Stop => {
+                    commands.apply(&mut state);
                     state.publish(&shared, &params);
                     state.flush_counts(&shared);
                     return;
                 }
             }
-        }
-        if received {
-            // Handling a message may take time (a stall, test hook): the cycle starts after it.
-            now = Instant::now();
-        }
+        };
         last = now;
         let g = shared.params_generation.load(Ordering::Acquire);
         if g != generation {
@@ -232,7 +235,9 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             params = shared.params.read().clone();
             *scratch.forces = Forces::new(&params.effects);
         }
-        // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing.
+        // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing. A
+        // command sent after the pause was asked for is seen with it: the send happens after the
+        // store, and the receive above after the send (the channel orders them).
         if shared.paused.load(Ordering::Relaxed) {
             state.flush_counts(&shared);
             // The monitor judges nothing while paused, so the horizon stands: every ball catches
@@ -242,11 +247,16 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             // pause was asked for.
             let (from, applied) = (state.time, state.applied);
             catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
-            if received || state.applied != applied || state.time != from {
+            // The commands take effect at the paused instant, so that a velocity set while paused
+            // is the velocity the paused table shows: once the ball stands at the horizon as it
+            // is now (the one read above may be older, if the thread waited since).
+            let commanded = state.time >= shared.horizon.load(Ordering::Acquire) && commands.apply(&mut state);
+            if received || commanded || state.applied != applied || state.time != from {
                 state.publish(&shared, &params);
             }
             continue;
         }
+        let commanded = commands.apply(&mut state);
         let clock = shared.clock(now);
         if clock > horizon {
             // Relaxed: a statistic.
@@ -258,11 +268,44 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             state.count(source);
             state.updates += 1;
         }
-        if state.time > from || state.applied != applied || received {
+        if state.time > from || state.applied != applied || received || commanded {
             state.publish(&shared, &params);
         }
         if state.updates.is_multiple_of(COUNTER_FLUSH) {
             state.flush_counts(&shared);
+        }
+    }
+}
+
+/// What taking the inbox came to.
+enum Inbox {
+    /// Nothing arrived.
+    Quiet,
+    /// Messages arrived and were taken.
+    Received,
+    /// Messages arrived, and one was a stall (the test hook): the thread slept while taking them.
+    Stalled,
+    /// The ball is to stop (told to, or every sender is gone).
+    Stop,
+}
+
+/// Takes every message in the inbox: contact responses are held (applied in `catch_up`), commands
+/// kept in `commands` until they take effect.
+fn take_inbox(inbox: &Receiver<Message>, state: &mut BallState, commands: &mut Commands) -> Inbox {
+    let mut got = Inbox::Quiet;
+    loop {
+        match inbox.try_recv() {
+            Ok(message) => match handle(message, state, commands) {
+                Handled::Stop => return Inbox::Stop,
+                Handled::Stalled => got = Inbox::Stalled,
+                Handled::Continue => {
+                    if let Inbox::Quiet = got {
+                        got = Inbox::Received;
+                    }
+                }
+            },
+            Err(TryRecvError::Empty) => return got,
+            Err(TryRecvError::Disconnected) => return Inbox::Stop,
         }
     }
 }
@@ -391,16 +434,46 @@ impl Waiter {
     }
 }
 
-fn handle(message: Message, state: &mut BallState) -> Handled {
+/// Commands taken from the inbox (the last of each kind wins: each sets a value), kept until the
+/// ball is at the instant they take effect: the start of its next stretch when running, the
+/// paused instant when paused (see `run_ball`).
+#[derive(Default)]
+struct Commands {
+    pull: Option<DVec2>,
+    mass: Option<f64>,
+    velocity: Option<DVec2>,
+}
+
+impl Commands {
+    /// Applies the commands held and forgets them; returns whether there were any.
+    fn apply(&mut self, state: &mut BallState) -> bool {
+        let any = self.pull.is_some() || self.mass.is_some() || self.velocity.is_some();
+        if let Some(force) = self.pull.take() {
+            state.pull = force;
+        }
+        if let Some(mass) = self.mass.take() {
+            state.ball.mass = mass;
+        }
+        if let Some(velocity) = self.velocity.take() {
+            state.ball.velocity = velocity;
+        }
+        any
+    }
+}
+
+fn handle(message: Message, state: &mut BallState, commands: &mut Commands) -> Handled {
     match message {
         // Applied in `catch_up`, in the order sent (the monitor counts them so), each no earlier
         // than it is due.
         Message::Contact(contact) => state.held.push_back(contact),
-        Message::Pull(force) => state.pull = force,
-        Message::SetMass(mass) => state.ball.mass = mass,
-        Message::Throw(velocity) => state.ball.velocity = velocity,
+        Message::Pull(force) => commands.pull = Some(force),
+        Message::SetMass(mass) => commands.mass = Some(mass),
+        Message::Throw(velocity) => commands.velocity = Some(velocity),
         Message::Stop => return Handled::Stop,
-        Message::Stall(d) => std::thread::sleep(d),
+        Message::Stall(d) => {
+            std::thread::sleep(d);
+            return Handled::Stalled;
+        }
         Message::Panic => panic!("ball {} was asked to panic (test hook)", state.ball.id),
     }
     Handled::Continue
@@ -409,9 +482,9 @@ fn handle(message: Message, state: &mut BallState) -> Handled {
 /// Advances the ball by `dt` seconds in sub-steps of at most `max_step`, so a stall (a dragged
 /// window, a loaded machine) never becomes one giant step. Returns where attraction came from.
 ///
-/// Three named steps: the other balls' pull for the cycle ([`gather_others`]), the split judged
-/// by the step policy ([`judge_split`]), and the sub-steps ([`take_substeps`]). The forces are
-/// lockstep's own passes (`physics::Forces`), evaluated on this ball alone.
+/// Two named steps: the other balls' pull for the cycle ([`gather_others`]), then the sub-steps
+/// ([`take_substeps`]), each judged by the step policy as it comes ([`judge_split`]). The forces
+/// are lockstep's own passes (`physics::Forces`), evaluated on this ball alone.
 fn advance(
     state: &mut BallState,
     dt: f64,
@@ -433,21 +506,19 @@ fn advance(
     let uniform = gravity + state.pull * body.inverse_mass;
     let others = gather_others(state, uniform, dt, params, shared, others, near);
     let ball_forces = forces.on_ball(body, state.pull, &others);
-    let sub = judge_split(&state.ball, dt, max_step, ball_forces);
+    let policy = StepPolicy::new(dt).with_max_step(max_step);
+    let taken = take_substeps(state, dt, policy, ball_forces, uniform, params, shared, integrator);
     // The longest cycle so far and its split, for the report (a stall shows as one long cycle).
-    let packed = Shared::pack_cycle(dt, sub.count as u64);
+    let packed = Shared::pack_cycle(dt, taken.count as u64);
     if packed > state.longest_cycle {
         state.longest_cycle = packed;
         // Relaxed: a statistic (see `Shared::longest_cycle`).
         shared.longest_cycle.fetch_max(packed, Ordering::Relaxed);
     }
-    if sub.drag_limited() {
+    if taken.drag_limited {
         // Relaxed: a statistic (see `Shared::drag_limited`).
         shared.drag_limited.fetch_add(1, Ordering::Relaxed);
     }
-    // Drag too stiff even for the policy's shortest sub-step gets lockstep's guard rail.
-    let ball_forces = ball_forces.with_drag_rate_limit(sub.drag_rate_limit);
-    take_substeps(state, sub, ball_forces, uniform, params, shared, integrator);
     others.source()
 }
 
@@ -457,9 +528,10 @@ enum OthersPull<'a> {
     /// Attraction is off.
     Off,
     /// From the monitor's tree snapshot, split once for the cycle: the far nodes' force (N) at the
-    /// cycle's start, the near balls (summed exactly at each sub-step) and the fastest orbit
-    /// rate² there (1/s²).
-    Split { far: DVec2, near: &'a [NearBall], orbit_rate2: f64 },
+    /// cycle's start, the near balls (summed exactly at each sub-step), the fastest orbit rate²
+    /// at the cycle's start (1/s², far nodes and near balls), and the attraction's parameters
+    /// (for the near balls' orbit rate where the ball is later in the cycle).
+    Split { far: DVec2, near: &'a [NearBall], orbit_rate2: f64, attraction: Attraction },
     /// Every other ball as last published, read directly from the table, and the attraction's
     /// parameters (for the orbit rate).
     Direct { table: &'a [BallRecord], attraction: Attraction },
@@ -489,10 +561,18 @@ impl OthersPull<'_> {
     }
 
     /// The fastest orbit rate ω (1/s) of a ball of `mass` and `radius` at `x` with any of them.
+    /// With the tree split, the near balls' rate is taken at `x` and the far nodes' at the cycle's
+    /// start (whichever is larger, never less than the start's whole rate): the ball may have
+    /// moved far into a near ball's pull since.
     fn orbit_rate(&self, x: DVec2, mass: f64, radius: f64) -> f64 {
         match self {
             OthersPull::Off => 0.0,
-            OthersPull::Split { orbit_rate2, .. } => orbit_rate2.sqrt(),
+            OthersPull::Split { near, orbit_rate2, attraction, .. } => {
+                let w2 = near.iter().fold(*orbit_rate2, |w, b| {
+                    w.max(attraction_rate_squared(x, mass, radius, b.position, b.mass, b.radius, attraction))
+                });
+                w2.sqrt()
+            }
             OthersPull::Direct { table, attraction } => {
                 let w2 = table.iter().fold(0.0f64, |w, o| {
                     let ob = &o.ball;
@@ -542,7 +622,7 @@ fn gather_others<'a>(
         .filter(|t| t.attraction() == att)
         .map(|t| t.split_on(state.slot, ball.position, ball.mass, ball.radius(), 2.0 * travel, near));
     match split {
-        Some((far, orbit_rate2)) => OthersPull::Split { far, near, orbit_rate2 },
+        Some((far, orbit_rate2)) => OthersPull::Split { far, near, orbit_rate2, attraction: *att },
         None => {
             // Acquire: pairs with the runtime's Release store after it wrote a new slot's record.
             let high = shared.high_water.load(Ordering::Acquire);
@@ -553,40 +633,70 @@ fn gather_others<'a>(
     }
 }
 
-/// How this cycle's `dt` is split: by the step policy lockstep uses (see `StepPolicy`), with
-/// sub-steps at most `max_step` long, judged by the rates at the ball's state now: drag at the
-/// speed now or at the terminal speed the other forces drive the ball to within the cycle
-/// (`BallForces::drag_rate`), and the fastest orbit with another ball. Travel is not bounded
-/// here: contacts are the monitor's, judged at its own period.
-fn judge_split(ball: &Ball, dt: f64, max_step: f64, forces: BallForces<'_, &OthersPull<'_>>) -> SubSteps {
+/// How the next sub-step of what is left of the cycle is split: by the step policy lockstep uses
+/// (see `StepPolicy`; `policy` holds the cycle's floor and the runtime's `max_step`), judged by
+/// the rates at the ball's state now: drag at the speed now or at the terminal speed the other
+/// forces drive the ball to (`BallForces::drag_rate`), and the fastest orbit with another ball.
+/// Travel is not bounded here: contacts are the monitor's, judged at its own period.
+fn judge_split(ball: &Ball, left: f64, policy: &StepPolicy, forces: BallForces<'_, &OthersPull<'_>>) -> SubSteps {
     let rates = SpanRates {
         travel: 0.0,
         drag: forces.drag_rate(ball.position, ball.velocity),
         orbit: forces.others().orbit_rate(ball.position, ball.mass, ball.radius()),
     };
-    StepPolicy::new(dt).with_max_step(max_step).split(dt, &rates)
+    policy.split(left, &rates)
 }
 
-/// `sub.count` sub-steps of `sub.h`, each integrated through the force passes and followed by the
-/// walls (`uniform`: the ball's uniform acceleration) and lockstep's speed guard rail.
+/// What a cycle's sub-steps came to.
+struct Taken {
+    /// Sub-steps taken.
+    count: u32,
+    /// Whether any of them had the drag guard rail on.
+    drag_limited: bool,
+}
+
+/// Sub-steps over `dt`, each judged afresh by the step policy before it is taken ([`judge_split`]
+/// over the time left, as lockstep re-judges before each of its sub-steps), integrated through
+/// the force passes and followed by the walls (`uniform`: the ball's uniform acceleration) and
+/// lockstep's speed guard rail.
+///
+/// Why each sub-step is judged, not the cycle once: the rates are those of the ball's state
+/// where it is, and a cycle can be long. A thread that the machine starved, or that stalled,
+/// catches up to the horizon in one cycle of hundreds of milliseconds, with the other balls held
+/// where they were published; on the way the ball can fall into a heavy ball's pull, whose
+/// terminal-speed drag is many times stiffer than at the cycle's start. Sub-steps sized by the
+/// start's rates then let the explicit stages overshoot through zero and run away to NaN (a 1.6 g
+/// ball of 2.2 m creeping into a 5e5 kg grain with G = 1: rate·h from 0.5 to over 1 within one
+/// stalled cycle), and the drag guard rail, judged at the start too, was never on. Judged at each
+/// sub-step, the split follows the rate as it grows, down to the cycle's floor, where the guard
+/// rail takes over. A cycle of one sub-step (the common one) is judged once, as before.
+#[allow(clippy::too_many_arguments)]
 fn take_substeps(
     state: &mut BallState,
-    sub: SubSteps,
+    dt: f64,
+    policy: StepPolicy,
     forces: BallForces<'_, &OthersPull<'_>>,
     uniform: DVec2,
     params: &Params,
     shared: &Shared,
     scratch: &mut IntegratorScratch,
-) {
+) -> Taken {
     let velocity_dependent = forces.depends_on_velocity();
     let ball = &mut state.ball;
     let (radius, mass) = (ball.radius(), ball.mass);
     // No force at all (the gas): every integrator reduces to a straight drift, as in lockstep.
     let drift = forces.is_empty();
-    for _ in 0..sub.count {
+    let mut taken = Taken { count: 0, drag_limited: false };
+    let mut left = dt;
+    while left > 0.0 {
+        // With one sub-step, `h` is exactly what is left, so `left` becomes exactly zero.
+        let sub = judge_split(ball, left, &policy, forces);
         if drift {
             ball.position += ball.velocity * sub.h;
         } else {
+            // Drag too stiff even for the policy's shortest sub-step gets lockstep's guard rail.
+            let forces = forces.with_drag_rate_limit(sub.drag_rate_limit);
+            taken.drag_limited |= sub.drag_limited();
             let mut x = [ball.position];
             let mut v = [ball.velocity];
             integrate(params.integrator, sub.h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
@@ -601,7 +711,10 @@ fn take_substeps(
             // Relaxed: a statistic (see `Shared::speed_limited`).
             shared.speed_limited.fetch_add(1, Ordering::Relaxed);
         }
+        left -= sub.h;
+        taken.count += 1;
     }
+    taken
 }
 
 /// The walls as a ball's own thread meets them. With collisions on, walls are contacts in the
