@@ -77,9 +77,10 @@ const TOUCH_MARGIN: f64 = 1e-6;
 /// not worth a message: the ball is untouched.
 const NEGLIGIBLE: f64 = 1e-15;
 
-/// The monitor asks for this nice value (higher priority than the balls' +5). Lowering niceness
-/// needs privilege (root or CAP_SYS_NICE); without it the monitor stays at 0 and relies on the
-/// balls' `SCHED_IDLE` alone.
+/// The monitor asks for this nice value, above every ordinary thread (the ball threads but the
+/// key ball run `SCHED_IDLE`, below them all; see `ball_thread::background_scheduling`).
+/// Lowering niceness needs privilege (root or CAP_SYS_NICE); without it the monitor stays at 0,
+/// still ahead of the `SCHED_IDLE` balls.
 const MONITOR_NICE: libc::c_int = -5;
 
 fn raise_priority() {
