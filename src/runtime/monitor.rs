@@ -44,10 +44,10 @@ use parking_lot::RwLock;
 
 use super::attraction_tree::TreePublisher;
 use super::message::{Contact, Message, clock_seconds};
-use super::shared::Shared;
+use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
-    AttractionMethod, Ball, BallId, BroadPhase, Drag, Integrator, IntegratorScratch, SpanRates, StepPolicy,
+    Attraction, AttractionMethod, Ball, BallId, BroadPhase, Drag, Integrator, IntegratorScratch, SpanRates, StepPolicy,
     TREE_MIN_BALLS, WallImpulses, cap_drag_rate, cap_speed, drag_force, drag_rate_bound, integrate, swept_circle,
 };
 use stand_in::{BallResponse, ContactParams, ContactSolver, SolverBall};
@@ -102,109 +102,18 @@ fn drop_time(shared: &Shared, ns: u64) {
     shared.clock_offset.store(offset + ns, Ordering::Release);
 }
 
+/// Runs the collision monitor until the runtime clears `monitor_running`: one pass per period
+/// (see the module comment), each a list of named steps ([`Monitor::pass`]).
 pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     raise_priority();
     let period = shared.config.monitor_period;
-    let period_ns = (period.as_nanos() as u64).max(1);
-    let horizon_ns = HORIZON_PERIODS as u64 * period_ns;
-    let max_advance = MAX_ADVANCE as u64 * period_ns;
-    let mut records: Vec<BallRecord> = Vec::new();
-    let mut contacts = ContactPass::new(shared.table.capacity());
-    let mut trees = TreePublisher::default();
-    // The parameters change rarely (panel, hotkeys): re-read them only when their generation
-    // moved, as the ball threads do. Acquire pairs with the Release increment in
-    // `Shared::update_params`: seeing a generation means the read lock returns what was written
-    // before it.
-    let mut generation = shared.params_generation.load(Ordering::Acquire);
-    let mut params = shared.params.read().clone();
-    let mut t_pass = shared.clock(Instant::now());
-    // Where the judged time ends: the first pass judges from here. Release: see
-    // `Shared::horizon` (nothing is sent before the first pass).
-    let mut judged = t_pass;
-    shared.horizon.store(judged, Ordering::Release);
+    let mut monitor = Monitor::new(&shared, inboxes);
     let mut next = Instant::now();
-    let mut busy_max_ns = 0u64;
     // Acquire/Release on the flag: the runtime clears it and then joins; nothing else rides on it.
     while shared.monitor_running.load(Ordering::Acquire) {
         let pass_start = Instant::now();
-        let g = shared.params_generation.load(Ordering::Acquire);
-        if g != generation {
-            generation = g;
-            params = shared.params.read().clone();
-        }
-        // Paused means everything stands still, contacts and the clock included (Relaxed: no
-        // data rides on the flag).
-        let paused = shared.paused.load(Ordering::Relaxed);
-        let now = shared.clock(pass_start);
-        if paused {
-            drop_time(&shared, now.saturating_sub(t_pass));
-        } else {
-            if now > t_pass + max_advance {
-                let dropped = now - t_pass - period_ns;
-                drop_time(&shared, dropped);
-                shared.clock_dropped_ns.fetch_add(dropped, Ordering::Relaxed);
-                t_pass += period_ns;
-            } else {
-                t_pass = t_pass.max(now);
-            }
-            // Acquire: pairs with the runtime's Release store after it wrote a new slot's first
-            // record.
-            let high = shared.high_water.load(Ordering::Acquire);
-            // Attraction by tree needs at least TREE_MIN_BALLS balls, so fewer occupied slots
-            // than that rule it out without reading the table.
-            let attraction = params.effects.attraction.filter(|_| high >= TREE_MIN_BALLS);
-            if params.effects.collisions.is_some() || attraction.is_some() {
-                shared.table.read_all(high, &mut records);
-            }
-            // The tree first: the balls get the fresher field sooner.
-            match attraction {
-                Some(att) if AttractionMethod::choose(records.len(), &att) == AttractionMethod::Tree => {
-                    // Rebuilt once the balls have moved on since the last build (see `is_fresh`).
-                    if !trees.is_fresh(&records, &att) {
-                        let t0 = Instant::now();
-                        if trees.publish(&records, &att, &shared.attraction_tree) {
-                            shared.tree_builds.fetch_add(1, Ordering::Relaxed);
-                            shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
-                        } else {
-                            shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
-                        }
-                        shared.tree_snapshots.store(trees.pool_size(), Ordering::Relaxed);
-                    }
-                }
-                _ => trees.withdraw(&shared.attraction_tree),
-            }
-            let end = (t_pass + horizon_ns).max(judged);
-            let span = (end - judged) as f64 * 1e-9 * params.time_scale;
-            if let (Some(collisions), true) = (params.effects.collisions, span > 0.0) {
-                let setting = PassSetting {
-                    start: judged,
-                    end,
-                    time_scale: params.time_scale,
-                    motion: Motion {
-                        integrator: params.integrator,
-                        max_step: shared.config.max_step,
-                        drag: params.effects.drag.as_ref(),
-                        time_scale: params.time_scale,
-                    },
-                    params: ContactParams {
-                        restitution: collisions.restitution,
-                        field: params.field,
-                        span,
-                        drift: resting_drift(params.integrator),
-                    },
-                };
-                contacts.run(&shared, &inboxes, &records, &setting);
-            }
-            // Release: every message of this pass was sent before (see `Shared::horizon`).
-            judged = end;
-            shared.horizon.store(end, Ordering::Release);
-        }
-        // Relaxed: statistics.
-        let busy = pass_start.elapsed().as_nanos() as u64;
-        busy_max_ns = busy_max_ns.max(busy);
-        shared.monitor_passes.fetch_add(1, Ordering::Relaxed);
-        shared.monitor_busy_ns.fetch_add(busy, Ordering::Relaxed);
-        shared.monitor_busy_max_ns.store(busy_max_ns, Ordering::Relaxed);
+        monitor.pass(pass_start);
+        monitor.count_pass(pass_start);
         next += period;
         let now = Instant::now();
         if next > now {
@@ -212,6 +121,182 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
         } else {
             next = now;
         }
+    }
+}
+
+/// The monitor thread's state between passes.
+struct Monitor<'a> {
+    shared: &'a Shared,
+    inboxes: Inboxes,
+    /// The period, the horizon and the longest advance a pass may make, ns.
+    period_ns: u64,
+    horizon_ns: u64,
+    max_advance_ns: u64,
+    /// The table as this pass read it.
+    records: Vec<BallRecord>,
+    contacts: ContactPass,
+    trees: TreePublisher,
+    /// The parameters and the generation they were read at (see [`Monitor::refresh_params`]).
+    generation: u64,
+    params: Params,
+    /// The last pass's instant (runtime clock, ns).
+    t_pass: u64,
+    /// Where the judged time ends (runtime clock, ns): the next pass judges from here.
+    judged: u64,
+    /// The longest pass so far, ns.
+    busy_max_ns: u64,
+}
+
+impl<'a> Monitor<'a> {
+    fn new(shared: &'a Shared, inboxes: Inboxes) -> Self {
+        let period_ns = (shared.config.monitor_period.as_nanos() as u64).max(1);
+        let t_pass = shared.clock(Instant::now());
+        // The first pass judges from here. Release: see `Shared::horizon` (nothing is sent
+        // before the first pass).
+        shared.horizon.store(t_pass, Ordering::Release);
+        Monitor {
+            shared,
+            inboxes,
+            period_ns,
+            horizon_ns: HORIZON_PERIODS as u64 * period_ns,
+            max_advance_ns: MAX_ADVANCE as u64 * period_ns,
+            records: Vec::new(),
+            contacts: ContactPass::new(shared.table.capacity()),
+            trees: TreePublisher::default(),
+            // Acquire pairs with the Release increment in `Shared::update_params`: seeing a
+            // generation means the read lock returns what was written before it.
+            generation: shared.params_generation.load(Ordering::Acquire),
+            params: shared.params.read().clone(),
+            t_pass,
+            judged: t_pass,
+            busy_max_ns: 0,
+        }
+    }
+
+    /// One pass, begun at `pass_start`: the parameters, the clock, then (unless paused) the
+    /// table, the attraction tree, the contacts of the next span and the new horizon.
+    fn pass(&mut self, pass_start: Instant) {
+        self.refresh_params();
+        // Paused means everything stands still, contacts and the clock included (Relaxed: no
+        // data rides on the flag).
+        let paused = self.shared.paused.load(Ordering::Relaxed);
+        let now = self.shared.clock(pass_start);
+        if paused {
+            drop_time(self.shared, now.saturating_sub(self.t_pass));
+            return;
+        }
+        self.advance_clock(now);
+        let high = self.read_table();
+        // The tree first: the balls get the fresher field sooner.
+        self.publish_tree(high);
+        let end = (self.t_pass + self.horizon_ns).max(self.judged);
+        self.judge_contacts(end);
+        // Release: every message of this pass was sent before (see `Shared::horizon`).
+        self.judged = end;
+        self.shared.horizon.store(end, Ordering::Release);
+    }
+
+    /// Re-reads the parameters if their generation moved. They change rarely (panel, hotkeys):
+    /// the monitor takes the read lock only then, as the ball threads do.
+    fn refresh_params(&mut self) {
+        // Acquire: see `Monitor::new`.
+        let g = self.shared.params_generation.load(Ordering::Acquire);
+        if g != self.generation {
+            self.generation = g;
+            self.params = self.shared.params.read().clone();
+        }
+    }
+
+    /// Moves the pass instant to the clock `now`, or, when this pass comes more than
+    /// [`MAX_ADVANCE`] periods after the last, one period on, dropping the rest from the clock
+    /// (see the module comment).
+    fn advance_clock(&mut self, now: u64) {
+        if now > self.t_pass + self.max_advance_ns {
+            let dropped = now - self.t_pass - self.period_ns;
+            drop_time(self.shared, dropped);
+            // Relaxed: a statistic.
+            self.shared.clock_dropped_ns.fetch_add(dropped, Ordering::Relaxed);
+            self.t_pass += self.period_ns;
+        } else {
+            self.t_pass = self.t_pass.max(now);
+        }
+    }
+
+    /// Whether attraction is taken from the tree this pass needs: on, and at least
+    /// [`TREE_MIN_BALLS`] occupied slots (fewer rule it out without reading the table).
+    fn tree_attraction(&self, high: usize) -> Option<Attraction> {
+        self.params.effects.attraction.filter(|_| high >= TREE_MIN_BALLS)
+    }
+
+    /// Reads the table into `records`, if anything this pass does needs it (contacts, the tree);
+    /// returns the high-water mark it read up to.
+    fn read_table(&mut self) -> usize {
+        // Acquire: pairs with the runtime's Release store after it wrote a new slot's first
+        // record.
+        let high = self.shared.high_water.load(Ordering::Acquire);
+        if self.params.effects.collisions.is_some() || self.tree_attraction(high).is_some() {
+            self.shared.table.read_all(high, &mut self.records);
+        }
+        high
+    }
+
+    /// Builds and publishes the attraction tree from this pass's read, when the field takes it
+    /// and the balls have moved on since the last build (see `TreePublisher::is_fresh`);
+    /// withdraws it when the field does not take it. `high`: as [`Monitor::read_table`] read it.
+    fn publish_tree(&mut self, high: usize) {
+        let shared = self.shared;
+        match self.tree_attraction(high) {
+            Some(att) if AttractionMethod::choose(self.records.len(), &att) == AttractionMethod::Tree => {
+                if !self.trees.is_fresh(&self.records, &att) {
+                    let t0 = Instant::now();
+                    // Relaxed: statistics.
+                    if self.trees.publish(&self.records, &att, &shared.attraction_tree) {
+                        shared.tree_builds.fetch_add(1, Ordering::Relaxed);
+                        shared.tree_build_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                    } else {
+                        shared.tree_builds_skipped.fetch_add(1, Ordering::Relaxed);
+                    }
+                    shared.tree_snapshots.store(self.trees.pool_size(), Ordering::Relaxed);
+                }
+            }
+            _ => self.trees.withdraw(&shared.attraction_tree),
+        }
+    }
+
+    /// Judges every contact from where the judged time ends to `end` and sends the responses
+    /// (with collisions on and a span of any length).
+    fn judge_contacts(&mut self, end: u64) {
+        let params = &self.params;
+        let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
+        let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
+        let setting = PassSetting {
+            start: self.judged,
+            end,
+            time_scale: params.time_scale,
+            motion: Motion {
+                integrator: params.integrator,
+                max_step: self.shared.config.max_step,
+                drag: params.effects.drag.as_ref(),
+                time_scale: params.time_scale,
+            },
+            params: ContactParams {
+                restitution: collisions.restitution,
+                field: params.field,
+                span,
+                drift: resting_drift(params.integrator),
+            },
+        };
+        self.contacts.run(self.shared, &self.inboxes, &self.records, &setting);
+    }
+
+    /// Counts a pass begun at `pass_start` and the time it took, for the report.
+    fn count_pass(&mut self, pass_start: Instant) {
+        // Relaxed: statistics (the monitor is the only writer of the longest pass).
+        let busy = pass_start.elapsed().as_nanos() as u64;
+        self.busy_max_ns = self.busy_max_ns.max(busy);
+        self.shared.monitor_passes.fetch_add(1, Ordering::Relaxed);
+        self.shared.monitor_busy_ns.fetch_add(busy, Ordering::Relaxed);
+        self.shared.monitor_busy_max_ns.store(self.busy_max_ns, Ordering::Relaxed);
     }
 }
 
@@ -368,61 +453,44 @@ impl ContactPass {
         }
     }
 
+    /// The contact part of one pass, in four named steps: every ball carried to the end of the
+    /// span ([`ContactPass::gather`]), the candidate pairs ([`ContactPass::find_pairs`]), one
+    /// solve of every contact ([`ContactPass::solve`]) and one message per touched ball
+    /// ([`ContactPass::send_responses`]).
     fn run(&mut self, shared: &Shared, inboxes: &Inboxes, records: &[BallRecord], s: &PassSetting) {
+        // Held for the whole contact part: once a removal has cleared a slot, no message can be
+        // sent to the departing ball (see `Inboxes`).
         let inboxes = inboxes.read();
-        let inbox = |r: &BallRecord| inboxes.get(r.slot).and_then(|s| s.as_ref());
-        let span = s.params.span;
+        self.gather(records, &inboxes, s);
+        self.find_pairs(s);
+        self.solve(shared, s);
+        self.send_responses(shared, records, &inboxes, s);
+        // Relaxed: a statistic (the monitor is its only writer).
+        shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
+    }
+
+    /// Every ball that takes part, at the end of the span in free motion (`balls`), with the
+    /// circle its path over the span lies in (`centres`, `reach`) and the fastest speed met.
+    fn gather(&mut self, records: &[BallRecord], inboxes: &[Option<Sender<Message>>], s: &PassSetting) {
         self.balls.clear();
         self.record_of.clear();
         self.centres.clear();
         self.reach.clear();
         self.fastest = 0.0;
         for (k, r) in records.iter().enumerate() {
-            let f = &mut self.in_flight[r.slot];
-            f.sync(r);
+            self.in_flight[r.slot].sync(r);
             // A ball being removed takes part in no contact: its partners get no half-impulse
             // it would not get.
-            if inbox(r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
+            if inbox(inboxes, r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
                 continue;
             }
             let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
-            // The ball at the span's start: as the last pass left it if it has published nothing
-            // since; otherwise from its record, moved on as its thread will move it, each response
-            // in flight applied at its instant (the thread holds each to that instant, and every
-            // one in flight is for an earlier span, so before this one's start).
-            let (mut x, mut v) = match self.judged[r.slot] {
-                Some(j)
-                    if j.id == r.ball.id
-                        && j.record_time == r.time
-                        && j.record_applied == r.applied
-                        && j.time == s.start =>
-                {
-                    (j.position, j.velocity)
-                }
-                _ => {
-                    let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
-                    for (_, m) in &f.queue {
-                        if m.apply_at > t {
-                            s.motion.advance(&mut x, &mut v, &r.ball, a, t, m.apply_at, &mut self.scratch);
-                            t = m.apply_at;
-                        }
-                        v += m.dv;
-                        x += m.shift_at(t, s.time_scale);
-                    }
-                    s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
-                    // How far the ball's own motion took it from where the last pass left it.
-                    if let Some(j) = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start) {
-                        self.drift_max = self.drift_max.max(x.distance(j.position));
-                    }
-                    (x, v)
-                }
-            };
-            let x_start = x;
-            let v_start = v;
+            let (x_start, v_start) = self.span_start(r, a, s);
+            let (mut x, mut v) = (x_start, v_start);
             s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
             self.fastest = self.fastest.max(v_start.length()).max(v.length());
             let radius = r.ball.radius();
-            let (centre, reach) = swept_circle(x_start, x, a, span, radius);
+            let (centre, reach) = swept_circle(x_start, x, a, s.params.span, radius);
             self.balls.push(SolverBall {
                 id: r.ball.id,
                 position: x,
@@ -435,13 +503,43 @@ impl ContactPass {
             self.centres.push(centre);
             self.reach.push(reach);
         }
-        // Every pair whose paths come within reach during the span: a superset of the pairs
-        // that touch in it, whatever their speed. A ball struck in mid-span leaves its free path:
-        // it then moves at most twice as fast as the fastest ball (an elastic strike by a much
-        // heavier one), so every path's circle grows by that much travel, and a struck ball's
-        // next contact in the span is among its pairs too. The margin keeps pairs that the
-        // solver left exactly touching (a row at rest, struck at one end).
-        let struck_travel = 2.0 * self.fastest * span;
+    }
+
+    /// The ball of record `r` (uniform acceleration `a`) at the span's start: as the last pass
+    /// left it if it has published nothing since; otherwise from its record, moved on as its
+    /// thread will move it, each response in flight applied at its instant (the thread holds each
+    /// to that instant, and every one in flight is for an earlier span, so before this one's
+    /// start).
+    fn span_start(&mut self, r: &BallRecord, a: DVec2, s: &PassSetting) -> (DVec2, DVec2) {
+        let last = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start);
+        if let Some(j) = last.filter(|j| j.record_time == r.time && j.record_applied == r.applied) {
+            return (j.position, j.velocity);
+        }
+        let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
+        for (_, m) in &self.in_flight[r.slot].queue {
+            if m.apply_at > t {
+                s.motion.advance(&mut x, &mut v, &r.ball, a, t, m.apply_at, &mut self.scratch);
+                t = m.apply_at;
+            }
+            v += m.dv;
+            x += m.shift_at(t, s.time_scale);
+        }
+        s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
+        // How far the ball's own motion took it from where the last pass left it.
+        if let Some(j) = last {
+            self.drift_max = self.drift_max.max(x.distance(j.position));
+        }
+        (x, v)
+    }
+
+    /// Every pair whose paths come within reach during the span: a superset of the pairs that
+    /// touch in it, whatever their speed. A ball struck in mid-span leaves its free path: it then
+    /// moves at most twice as fast as the fastest ball (an elastic strike by a much heavier one),
+    /// so every path's circle grows by that much travel, and a struck ball's next contact in the
+    /// span is among its pairs too. The margin keeps pairs that the solver left exactly touching
+    /// (a row at rest, struck at one end).
+    fn find_pairs(&mut self, s: &PassSetting) {
+        let struck_travel = 2.0 * self.fastest * s.params.span;
         for reach in &mut self.reach {
             *reach += struck_travel;
         }
@@ -451,6 +549,10 @@ impl ContactPass {
         self.pairs.clear();
         let pairs = &mut self.pairs;
         self.broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
+    }
+
+    /// One solve of every contact of the span, counted, its wall impulses on the monitor's gauge.
+    fn solve(&mut self, shared: &Shared, s: &PassSetting) {
         let tally = self.solver.solve(&self.balls, &self.pairs, &s.params);
         // Relaxed: statistics.
         shared.contacts_solved.fetch_add(tally.contacts, Ordering::Relaxed);
@@ -459,6 +561,17 @@ impl ContactPass {
             shared.solves_unconverged.fetch_add(1, Ordering::Relaxed);
         }
         add_monitor_walls(shared, &tally.walls);
+    }
+
+    /// Remembers where the solve left every ball at the span's end (the next pass continues from
+    /// there), and sends each ball with a response worth sending one stamped message.
+    fn send_responses(
+        &mut self,
+        shared: &Shared,
+        records: &[BallRecord],
+        inboxes: &[Option<Sender<Message>>],
+        s: &PassSetting,
+    ) {
         for (i, response) in self.solver.responses().iter().enumerate() {
             let b = &self.balls[i];
             let r = &records[self.record_of[i] as usize];
@@ -470,10 +583,10 @@ impl ContactPass {
                 position: b.position + response.shift,
                 velocity: b.velocity + response.velocity_change,
             });
-            if negligible(response, b.radius, span) {
+            if negligible(response, b.radius, s.params.span) {
                 continue;
             }
-            let Some(tx) = inbox(r) else { continue };
+            let Some(tx) = inbox(inboxes, r) else { continue };
             let before_end = (response.instant / s.time_scale * 1e9).clamp(0.0, (s.end - s.start) as f64) as u64;
             let message = Contact {
                 dv: response.velocity_change,
@@ -481,7 +594,8 @@ impl ContactPass {
                 stamp: s.end,
                 apply_at: s.end - before_end,
             };
-            // Fails only if the ball's thread is gone (it panicked): counted as dropped.
+            // Fails only if the ball's thread is gone (it panicked): counted as dropped. Relaxed:
+            // statistics.
             if tx.send(Message::Contact(message)).is_ok() {
                 let f = &mut self.in_flight[r.slot];
                 f.queue.push_back((f.sent, message));
@@ -491,9 +605,12 @@ impl ContactPass {
                 shared.messages_dropped.fetch_add(1, Ordering::Relaxed);
             }
         }
-        // Relaxed: a statistic (the monitor is its only writer).
-        shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
     }
+}
+
+/// The inbox of the ball of record `r`, if it is still on the field.
+fn inbox<'a>(inboxes: &'a [Option<Sender<Message>>], r: &BallRecord) -> Option<&'a Sender<Message>> {
+    inboxes.get(r.slot).and_then(|s| s.as_ref())
 }
 
 fn negligible(r: &BallResponse, radius: f64, span: f64) -> bool {
