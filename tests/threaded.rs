@@ -8,9 +8,10 @@ use std::time::{Duration, Instant};
 use ballfield::EngineError;
 use ballfield::Scene;
 use ballfield::physics::{Ball, BallId, BallKind, Field, measure};
-use ballfield::runtime::{Runtime, RuntimeConfig, momentum_of, wait_until};
+use ballfield::runtime::{Runtime, RuntimeConfig};
 use ballfield::scene::Origin;
 use ballfield::scenes;
+use common::{momentum_of, wait_until};
 use glam::DVec2;
 
 /// The tests here measure a machine's worth of threads; run them one at a time so that one test's

@@ -3,14 +3,17 @@
 //! table. Invariants and tolerances, not bits: the path taken (the runtime's counters and the
 //! report), no NaN, every ball inside, and the pull of a distant cluster against Newton's law.
 
+mod common;
+
 use std::time::Duration;
 
 use ballfield::EngineKind;
 use ballfield::Scene;
 use ballfield::headless::{HeadlessOptions, RunLength};
 use ballfield::physics::{Ball, BallId, BallKind, TREE_MIN_BALLS};
-use ballfield::runtime::{Runtime, RuntimeConfig, RuntimeStats, wait_until};
+use ballfield::runtime::{Runtime, RuntimeConfig, RuntimeStats};
 use ballfield::scene::Origin;
+use common::wait_until;
 use glam::DVec2;
 
 /// One runtime at a time: each test runs a few hundred threads, and two at once on a two-core

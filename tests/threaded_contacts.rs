@@ -8,8 +8,9 @@ use std::time::Duration;
 
 use ballfield::Scene;
 use ballfield::physics::{Ball, BallId, BallKind};
-use ballfield::runtime::{BallRecord, Runtime, RuntimeConfig, wait_until};
+use ballfield::runtime::{BallRecord, Runtime, RuntimeConfig};
 use ballfield::scene::Origin;
+use common::wait_until;
 use glam::DVec2;
 
 /// One runtime at a time: each test measures a machine's worth of threads.

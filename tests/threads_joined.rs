@@ -23,15 +23,18 @@
 //! expected 33".
 #![cfg(target_os = "linux")]
 
+mod common;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use ballfield::EngineError as RuntimeError;
 use ballfield::Scene;
 use ballfield::physics::{Ball, BallId, BallKind};
-use ballfield::runtime::{Runtime, RuntimeConfig, wait_until};
+use ballfield::runtime::{Runtime, RuntimeConfig};
 use ballfield::scene::Origin;
 use ballfield::scenes;
+use common::wait_until;
 use glam::DVec2;
 
 /// The OS threads of this process now.

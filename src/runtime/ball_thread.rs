@@ -159,7 +159,8 @@ impl BallState {
 
 enum Handled {
     Continue,
-    /// The thread slept (the stall test hook).
+    /// The thread slept (the stall test hook, built only with the feature `test-hooks`).
+    #[cfg_attr(not(feature = "test-hooks"), allow(dead_code))]
     Stalled,
     Stop,
 }
@@ -470,10 +471,12 @@ fn handle(message: Message, state: &mut BallState, commands: &mut Commands) -> H
         Message::SetMass(mass) => commands.mass = Some(mass),
         Message::Throw(velocity) => commands.velocity = Some(velocity),
         Message::Stop => return Handled::Stop,
+        #[cfg(feature = "test-hooks")]
         Message::Stall(d) => {
             std::thread::sleep(d);
             return Handled::Stalled;
         }
+        #[cfg(feature = "test-hooks")]
         Message::Panic => panic!("ball {} was asked to panic (test hook)", state.ball.id),
     }
     Handled::Continue

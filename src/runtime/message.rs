@@ -17,12 +17,13 @@ pub enum Message {
     Throw(DVec2),
     /// Finish the current cycle and exit.
     Stop,
-    /// Test hook: the ball's thread sleeps this long inside its cycle, as if the machine had
-    /// stalled it; its next dt is then that long (and is split into sub-steps).
-    #[doc(hidden)]
+    /// Test hook (feature `test-hooks`): the ball's thread sleeps this long while it takes its
+    /// inbox, as if the machine had stalled it; its next cycle starts after the sleep and is that
+    /// much longer (and is split into sub-steps).
+    #[cfg(feature = "test-hooks")]
     Stall(std::time::Duration),
-    /// Test hook: panic inside the ball's thread.
-    #[doc(hidden)]
+    /// Test hook (feature `test-hooks`): panic inside the ball's thread.
+    #[cfg(feature = "test-hooks")]
     Panic,
 }
 

@@ -548,14 +548,16 @@ impl Runtime {
         }
     }
 
-    /// Test hook: makes a ball's thread panic.
-    #[doc(hidden)]
+    /// Test hook (feature `test-hooks`): makes a ball's thread panic, to check that the panic is
+    /// reported and the others keep running.
+    #[cfg(feature = "test-hooks")]
     pub fn inject_panic(&self, id: BallId) -> Result<(), EngineError> {
         self.send_to(id, Message::Panic)
     }
 
-    /// Test hook: stalls a ball's thread for `duration` (see [`Message::Stall`]).
-    #[doc(hidden)]
+    /// Test hook (feature `test-hooks`): stalls a ball's thread for `duration`, as if the machine
+    /// had stalled it (see [`Message::Stall`]).
+    #[cfg(feature = "test-hooks")]
     pub fn inject_stall(&self, id: BallId, duration: Duration) -> Result<(), EngineError> {
         self.send_to(id, Message::Stall(duration))
     }
@@ -589,13 +591,9 @@ impl Drop for Runtime {
     }
 }
 
-/// Convenience for tests and reports: total momentum of a snapshot.
-pub fn momentum_of(records: &[BallRecord]) -> DVec2 {
-    records.iter().map(|r| r.ball.momentum()).sum()
-}
-
-/// How long to wait for something the runtime does asynchronously, polling.
-pub fn wait_until(timeout: Duration, mut done: impl FnMut() -> bool) -> bool {
+/// Polls `done` every millisecond until it holds or `timeout` has passed; returns whether it held
+/// (see [`Runtime::settle`]).
+fn wait_until(timeout: Duration, mut done: impl FnMut() -> bool) -> bool {
     let end = Instant::now() + timeout;
     while Instant::now() < end {
         if done() {

@@ -1,8 +1,11 @@
 // Shared helpers for the integration tests (each test file includes it with `mod common;`).
 #![allow(dead_code)]
 
+use std::time::{Duration, Instant};
+
 use ballfield::Lockstep;
 use ballfield::physics::{Ball, BallId, BallKind, Effects, Field, Integrator};
+use ballfield::runtime::BallRecord;
 use glam::DVec2;
 
 pub fn ball(id: u32, x: f64, y: f64, vx: f64, vy: f64, mass: f64, diameter: f64) -> Ball {
@@ -65,3 +68,21 @@ pub const PULLED_INTO_DRAG: [(f64, f64, f64, f64, f64, f64); 10] = [
     (0.5, 0.5, 0.0, 0.0, 1.0, 1.0),
     (0.5, 0.5, 0.0, 0.0, 1.0, 1.0),
 ];
+
+/// Polls `done` every millisecond until it holds or `timeout` has passed (for what the threaded
+/// runtime does asynchronously); returns whether it held.
+pub fn wait_until(timeout: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let end = Instant::now() + timeout;
+    while Instant::now() < end {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    done()
+}
+
+/// The total momentum of a snapshot of the threaded runtime's table, kg·m/s.
+pub fn momentum_of(records: &[BallRecord]) -> DVec2 {
+    records.iter().map(|r| r.ball.momentum()).sum()
+}
