@@ -3,6 +3,8 @@
 
 use glam::DVec2;
 
+/// A message to one ball's thread. Everyone but the ball itself changes a ball only by sending it
+/// one of these: the ball's thread stays the single writer of its state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Message {
     /// From the collision monitor: one pass's net response of every contact of this ball.
@@ -38,10 +40,13 @@ pub enum Message {
 /// horizon the pass published.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Contact {
+    /// The velocity change, m/s.
     pub dv: DVec2,
+    /// The position change at `stamp`, m.
     pub dx: DVec2,
-    /// Runtime clock, ns (see `Shared::clock`).
+    /// The instant the response is of (runtime clock, ns; see `Shared::clock`).
     pub stamp: u64,
+    /// The earliest instant the ball applies it (runtime clock, ns).
     pub apply_at: u64,
 }
 

@@ -69,32 +69,40 @@ struct Registry {
     panics: Vec<String>,
 }
 
-/// Figures the runtime measured about itself.
+/// Figures the runtime measured about itself (the report's `runtime` section).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct RuntimeStats {
+    /// Live balls.
     pub balls: usize,
     /// Seconds since the runtime started.
     pub seconds: f64,
-    /// Update cycles per second achieved by the slowest ball and by the median ball.
+    /// Update cycles per second achieved by the slowest ball.
     pub ball_rate_min: f64,
+    /// Update cycles per second achieved by the median ball.
     pub ball_rate_median: f64,
+    /// Passes the collision monitor made.
     pub monitor_passes: u64,
+    /// Monitor passes per second since the runtime started.
     pub monitor_passes_per_second: f64,
-    /// Mean wall time of one monitor pass, s (includes time it was preempted), and the longest.
+    /// Mean wall time of one monitor pass, s (includes time it was preempted).
     pub monitor_pass_seconds: f64,
+    /// The longest monitor pass, s.
     pub monitor_pass_seconds_max: f64,
-    /// Contact messages (impulse + shift) the monitor sent, and those the balls applied.
+    /// Contact messages (impulse + shift) the monitor sent.
     pub impulses_sent: u64,
+    /// Contact messages the balls applied (equal to those sent once the runtime has settled).
     pub impulses_applied: u64,
     /// Contacts (ball pairs and walls) the monitor's solver found touching, summed over its
-    /// passes; those that got an impact (restitution) impulse; solves that hit an iteration cap.
+    /// passes.
     pub contacts_solved: u64,
+    /// Those of them that got an impact (restitution) impulse.
     pub contact_impacts: u64,
+    /// Solves that hit an iteration cap.
     pub solves_unconverged: u64,
     /// Wall time the runtime clock dropped because the monitor came too late to have watched it
-    /// (a stalled process, a starved monitor), s; and ball cycles that stopped at the monitor's
-    /// horizon short of the clock.
+    /// (a stalled process, a starved monitor), s.
     pub clock_dropped_seconds: f64,
+    /// Ball cycles that stopped at the monitor's horizon short of the clock.
     pub horizon_waits: u64,
     /// The largest distance between where the monitor judged a ball to be at the end of a span
     /// and where the ball's next record put it then, m (its own integration of drag, attraction
@@ -104,36 +112,45 @@ pub struct RuntimeStats {
     pub responses_late: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
-    /// The ball threads' guard rails, as in lockstep: speeds capped at `MAX_SPEED`, and cycles
-    /// whose drag was too stiff for the shortest sub-step (0 in every sane field).
+    /// The ball threads' speed guard rail, as in lockstep: sub-steps whose speed was capped at
+    /// `MAX_SPEED` (0 in every sane field).
     pub speed_limited: u64,
+    /// The drag guard rail: cycles with a sub-step whose drag was too stiff even for the
+    /// shortest sub-step (0 in every sane field).
     pub drag_limited: u64,
-    /// The longest cycle a ball ran (simulated s: a stall makes one long) and the sub-steps it
-    /// was split into.
+    /// The longest cycle a ball ran, simulated s (a stall makes one long).
     pub longest_cycle_seconds: f64,
+    /// The sub-steps that cycle was split into.
     pub longest_cycle_substeps: u64,
+    /// Ball threads that panicked.
     pub threads_panicked: u64,
+    /// Their messages, as reported when they were joined.
     pub panics: Vec<String>,
-    /// Attraction trees the monitor built and published (from `TREE_MIN_BALLS` balls on), per
-    /// second, and the mean wall time of one build (table snapshot to publication), s.
+    /// Attraction trees the monitor built and published (from `TREE_MIN_BALLS` balls on).
     pub tree_builds: u64,
+    /// Tree builds per second since the runtime started.
     pub tree_builds_per_second: f64,
+    /// Mean wall time of one build (table snapshot to publication), s.
     pub tree_build_seconds: f64,
     /// Passes that built no tree because every pooled snapshot was still held by a ball.
     pub tree_builds_skipped: u64,
     /// Tree snapshots the monitor allocated (its pool).
     pub tree_snapshots: usize,
-    /// Ball cycles with attraction on that took the force from the tree, and those that read the
-    /// table directly (each ball reports its counts every 16 cycles, so these may lag by that).
+    /// Ball cycles with attraction on that took the force from the tree (each ball reports its
+    /// counts every 16 cycles, so this may lag by that).
     pub attraction_tree_cycles: u64,
+    /// Ball cycles with attraction on that read the table directly (lagging as the last).
     pub attraction_direct_cycles: u64,
 }
 
 /// How a shutdown went.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShutdownReport {
+    /// Ball threads joined.
     pub joined: usize,
+    /// Messages of the ball threads that panicked over the run.
     pub panics: Vec<String>,
+    /// Wall time the shutdown took, s.
     pub seconds: f64,
 }
 
@@ -189,6 +206,7 @@ impl Runtime {
         Ok(runtime)
     }
 
+    /// The configuration the runtime runs with.
     pub fn config(&self) -> RuntimeConfig {
         self.shared.config
     }
@@ -381,10 +399,12 @@ impl Runtime {
         self.send_to(id, Message::Throw(velocity))
     }
 
+    /// Turns effects on and off: every ball thread and the monitor follow from their next cycle.
     pub fn set_effects(&self, effects: Effects) {
         self.shared.update_params(|p| p.effects = effects);
     }
 
+    /// The integrator every ball thread uses from its next cycle.
     pub fn set_integrator(&self, integrator: Integrator) {
         self.shared.update_params(|p| p.integrator = integrator);
     }
@@ -406,15 +426,19 @@ impl Runtime {
         }
     }
 
+    /// A new field (size, wall restitution), followed from the next cycle.
     pub fn set_field(&self, field: Field) {
         self.shared.update_params(|p| p.field = field);
     }
 
+    /// Stops simulated time: the monitor judges nothing more and the clock stands; every ball
+    /// catches up to the monitor's horizon and stands there (see [`Runtime::settle`]).
     pub fn pause(&self) {
         // Relaxed: see the ball loop; the flag carries no data.
         self.shared.paused.store(true, Ordering::Relaxed);
     }
 
+    /// Lets simulated time run again after [`Runtime::pause`].
     pub fn resume(&self) {
         self.shared.paused.store(false, Ordering::Relaxed);
     }
@@ -441,6 +465,7 @@ impl Runtime {
         self.shared.clock_dropped_ns.load(Ordering::Relaxed) as f64 * 1e-9
     }
 
+    /// Whether the runtime is paused.
     pub fn is_paused(&self) -> bool {
         self.shared.paused.load(Ordering::Relaxed)
     }
@@ -493,6 +518,7 @@ impl Runtime {
         })
     }
 
+    /// The runtime's figures now (joins and reports ball threads that panicked meanwhile).
     pub fn stats(&self) -> RuntimeStats {
         let now = Instant::now();
         let records = self.snapshot();

@@ -41,8 +41,11 @@ impl Default for RuntimeConfig {
 /// Parameters every ball thread follows; changed rarely (panel, hotkeys), read once per change.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
+    /// The field: its size and the walls' restitution.
     pub field: Field,
+    /// The effects that are on.
     pub effects: Effects,
+    /// The integrator every ball thread uses.
     pub integrator: Integrator,
     /// Simulated seconds per wall-clock second (1 = real time, < 1 = slow motion).
     pub time_scale: f64,

@@ -55,7 +55,9 @@ const KEY_BIT: u64 = 1 << 63;
 /// What the table says about one ball at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BallRecord {
+    /// The table slot the ball's thread publishes to.
     pub slot: usize,
+    /// The ball's state at `time`.
     pub ball: Ball,
     /// Monitor messages (impulses/shifts) this ball has applied so far.
     pub applied: u64,
@@ -124,10 +126,12 @@ pub struct BallTable {
 }
 
 impl BallTable {
+    /// A table of `capacity` empty slots.
     pub fn new(capacity: usize) -> Self {
         BallTable { slots: (0..capacity).map(|_| Slot::new()).collect() }
     }
 
+    /// The number of slots.
     pub fn capacity(&self) -> usize {
         self.slots.len()
     }
