@@ -163,7 +163,7 @@ pub trait Engine: Send {
     /// scale), then stays paused.
     fn single_step(&mut self, span: Duration);
     /// Simulated seconds per wall-clock second (slow motion below 1); applies to [`Engine::tick`]
-    /// and to the threaded engine's clock.
+    /// and to the threaded engine's clock. A negative or non-finite scale is ignored.
     fn set_time_scale(&mut self, scale: f64);
     /// Simulated seconds per wall-clock second now (see [`Engine::set_time_scale`]).
     fn time_scale(&self) -> f64;
