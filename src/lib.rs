@@ -23,8 +23,6 @@ pub mod headless;
 pub mod lockstep;
 pub mod physics;
 pub mod render;
-// Its docs come with its rewrite (issue 13).
-#[allow(missing_docs)]
 pub mod runtime;
 pub mod scene;
 pub mod scenes;

@@ -45,4 +45,4 @@ pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
-pub use sweep::{free_motion, impact_before_end, swept_circle, wall_impact_before_end};
+pub use sweep::swept_circle;
