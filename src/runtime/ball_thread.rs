@@ -21,7 +21,6 @@ use glam::DVec2;
 use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
-use crate::physics::Field;
 use crate::physics::{
     Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
     SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
@@ -125,7 +124,8 @@ impl BallState {
         self.ball.velocity += m.dv;
         self.ball.position += m.shift_at(self.time, params.time_scale);
         self.applied += 1;
-        // A shift may take the ball past a wall: the wall holds it, as in a step.
+        // Without collisions (a response came before they were turned off), a shift that takes
+        // the ball past a wall is bounced back, as in a step.
         let r = self.ball.radius();
         ball_walls(
             &mut self.ball.position,
@@ -247,7 +247,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             // monitor sees them applied). That is at most a horizon of simulated time after the
             // pause was asked for.
             let (from, applied) = (state.time, state.applied);
-            catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
+            catch_up(horizon, horizon, &mut state, &params, max_step, &shared, &mut scratch);
             // The commands take effect at the paused instant, so that a velocity set while paused
             // is the velocity the paused table shows: once the ball stands at the horizon as it
             // is now (the one read above may be older, if the thread waited since).
@@ -264,7 +264,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
         }
         let (from, applied) = (state.time, state.applied);
-        let source = catch_up(clock.min(horizon), &mut state, &params, max_step, &shared, &mut scratch);
+        let source = catch_up(clock.min(horizon), horizon, &mut state, &params, max_step, &shared, &mut scratch);
         if state.time > from {
             state.count(source);
             state.updates += 1;
@@ -311,18 +311,23 @@ fn take_inbox(inbox: &Receiver<Message>, state: &mut BallState, commands: &mut C
     }
 }
 
-/// A held response is applied early, at the start of the stretch before its `apply_at`, when it
-/// would put the ball at most this fraction of its radius off the path it will have (its velocity
-/// change times the time it comes early): resting contacts, mostly, whose small impulse
-/// is not worth splitting the cycle for.
-const EARLY: f64 = 1e-9;
-
 /// Integrates the ball from its state's instant to `target` (runtime clock), applying each held
 /// contact response on the way at the instant it is due (its `apply_at`; already due ones at
 /// once), so the ball never integrates through an impact the monitor judged. Responses not due
 /// by `target` stay held. Returns where the last stretch's attraction came from.
+///
+/// The ball's stretches are the monitor's (see `monitor::ContactPass::span_start`, which carries
+/// the ball the same way): up to each response's `apply_at`, and once a response is applied, on
+/// to the end of the span it was judged over (its `stamp`, never past `horizon`) in one stretch,
+/// even past `target`. The ball then ends where the monitor put it, under any integrator: cut at
+/// the ball's own cycles instead, a stretch ends elsewhere under one that is not exact for a
+/// uniform force (semi-implicit Euler drops `g·Σh²/2` over steps `h`), and a ball resting in a
+/// pile rose a few micrometres above where the monitor had put it every pass and fell back the
+/// next, so that the pile's resting solve never converged.
+#[allow(clippy::too_many_arguments)]
 fn catch_up(
     target: u64,
+    horizon: u64,
     state: &mut BallState,
     params: &Params,
     max_step: f64,
@@ -330,7 +335,6 @@ fn catch_up(
     scratch: &mut CycleScratch,
 ) -> AttractionSource {
     let scale = params.time_scale;
-    let tolerance = EARLY * state.ball.radius();
     let mut source = AttractionSource::Off;
     while let Some(m) = state.held.front().copied() {
         if m.apply_at > target {
@@ -338,16 +342,20 @@ fn catch_up(
         }
         if m.apply_at > state.time {
             let lead = clock_seconds(m.apply_at, state.time) * scale;
-            if m.dv.length() * lead > tolerance {
-                source = advance(state, lead, max_step, params, shared, scratch);
-                state.time = m.apply_at;
-            }
+            source = advance(state, lead, max_step, params, shared, scratch);
+            state.time = m.apply_at;
         } else if m.apply_at < state.time {
             // Relaxed: a statistic.
             shared.responses_late.fetch_add(1, Ordering::Relaxed);
         }
         state.held.pop_front();
         state.apply(&m, params);
+        let end = m.stamp.min(horizon);
+        if end > state.time {
+            let dt = clock_seconds(end, state.time) * scale;
+            source = advance(state, dt, max_step, params, shared, scratch);
+            state.time = end;
+        }
     }
     if target > state.time {
         let dt = clock_seconds(target, state.time) * scale;
@@ -722,11 +730,14 @@ fn take_substeps(
 
 /// The walls as a ball's own thread meets them. With collisions on, walls are contacts in the
 /// monitor's solver, judged ahead with the ball's other contacts (that is what stands a pile on
-/// the floor) and sent as part of its responses; here the ball is only held inside the field,
-/// its velocity untouched, so that if it ever gets past a wall before a response reverses it,
-/// the monitor's next pass finds it at the wall moving out and strikes it there once — a bounce
-/// the ball also gave itself would be a second impulse for the one contact. Without collisions
-/// the monitor judges nothing and the ball bounces itself, counting the impulse on its gauge.
+/// the floor) and sent as part of its responses: between responses the ball moves in free motion,
+/// as the monitor predicts it, and its thread does nothing at a wall. Holding it inside here as
+/// well would be a second response to the one contact, unknown to the monitor: a ball held on the
+/// floor while the solver's response lifted it out of the overlap it predicted ended that much
+/// too high (millimetres per pass in a pile, which then never came to rest). A ball is past a
+/// wall only inside a span whose response, judged ahead, puts it back by the span's end. Without
+/// collisions the monitor judges nothing and the ball bounces itself, counting the impulse on
+/// its gauge.
 fn ball_walls(
     position: &mut DVec2,
     velocity: &mut DVec2,
@@ -736,17 +747,9 @@ fn ball_walls(
     params: &Params,
     walls: &mut WallImpulses,
 ) {
-    if params.effects.collisions.is_some() {
-        hold_inside(position, radius, &params.field);
-    } else {
+    if params.effects.collisions.is_none() {
         contact_ball_wall(position, velocity, radius, mass, acceleration, &params.field, walls);
     }
-}
-
-/// Puts a ball that is past a wall back on it, leaving its velocity alone.
-fn hold_inside(position: &mut DVec2, radius: f64, field: &Field) {
-    position.x = position.x.clamp(radius.min(field.width - radius), (field.width - radius).max(radius));
-    position.y = position.y.clamp(radius.min(field.height - radius), (field.height - radius).max(radius));
 }
 
 /// Ball threads (all but the key ball) are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not

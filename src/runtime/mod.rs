@@ -192,6 +192,9 @@ impl Runtime {
             monitor: Mutex::new(None),
             started: Instant::now(),
         };
+        // The instant the first balls begin at and the monitor's first span starts from (see
+        // `Runtime::insert`). Release: see `Shared::horizon`.
+        runtime.shared.horizon.store(runtime.shared.clock(Instant::now()), Ordering::Release);
         let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
         let monitor = std::thread::Builder::new()
             .name("collision-monitor".into())
@@ -252,25 +255,37 @@ impl Runtime {
         reg.next_id = reg.next_id.max(ball.id.0 + 1);
         let high = self.shared.high_water.load(Ordering::Relaxed);
         let slot = reg.free_slots.pop_first().unwrap_or(high);
-        // The slot is free and no thread owns it yet: the runtime writes the first record. The
-        // spawn below hands the slot to the new thread (spawn happens-before the thread's start).
         let gravity = self.params().effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        let record = BallRecord {
-            slot,
-            ball,
-            applied: 0,
-            updates: 0,
-            wall_impulses: WallImpulses::default(),
-            time: self.shared.clock(Instant::now()),
-            acceleration: gravity,
-        };
-        self.shared.table.write(slot, &record);
-        if slot >= high {
-            // Release: readers that Acquire the new high-water mark see the record just written.
-            self.shared.high_water.store(slot + 1, Ordering::Release);
-        }
         let (tx, rx) = crossbeam_channel::unbounded();
-        self.inboxes.write()[slot] = Some(tx.clone());
+        {
+            // Under the inboxes' write lock, which a monitor pass holds (read) from its read of the
+            // table to the horizon it publishes: the ball begins at the horizon, the end of the
+            // time judged so far, so its whole life is judged. Begun at the clock instead, it
+            // would fall freely through the horizon the monitor had judged without it (up to
+            // four periods: 4 cm/s under gravity, into whatever it rests on). Acquire: see
+            // `Shared::horizon`.
+            let mut inboxes = self.inboxes.write();
+            let time = self.shared.horizon.load(Ordering::Acquire);
+            // The slot is free and no thread owns it yet: the runtime writes the first record.
+            // The spawn below hands the slot to the new thread (spawn happens-before the thread's
+            // start).
+            let record = BallRecord {
+                slot,
+                ball,
+                applied: 0,
+                updates: 0,
+                wall_impulses: WallImpulses::default(),
+                time,
+                acceleration: gravity,
+            };
+            self.shared.table.write(slot, &record);
+            if slot >= high {
+                // Release: readers that Acquire the new high-water mark see the record just
+                // written.
+                self.shared.high_water.store(slot + 1, Ordering::Release);
+            }
+            inboxes[slot] = Some(tx.clone());
+        }
         let shared = self.shared.clone();
         let spawned = std::thread::Builder::new()
             .name(format!("ball-{}", ball.id))

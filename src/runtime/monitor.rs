@@ -53,8 +53,9 @@ use crate::physics::{
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
-/// read (read lock) by the monitor for the whole contact part of a pass, so that once a removal
-/// has cleared a slot no message can be sent to the departing ball.
+/// read (read lock) by the monitor from its read of the table to the horizon it publishes, so
+/// that once a removal has cleared a slot no message can be sent to the departing ball, and a
+/// ball added is judged from the instant it begins at (see `Runtime::insert`).
 pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Sender<Message>>>>>;
 
 /// How far ahead of its instant a pass judges the contacts, in monitor periods: the next pass
@@ -151,9 +152,10 @@ impl<'a> Monitor<'a> {
     fn new(shared: &'a Shared, inboxes: Inboxes) -> Self {
         let period_ns = (shared.config.monitor_period.as_nanos() as u64).max(1);
         let t_pass = shared.clock(Instant::now());
-        // The first pass judges from here. Release: see `Shared::horizon` (nothing is sent
-        // before the first pass).
-        shared.horizon.store(t_pass, Ordering::Release);
+        // The first pass judges from the horizon the runtime set when it started, the instant
+        // every ball added since begins at (see `Runtime::insert`). Acquire: see
+        // `Shared::horizon`.
+        let judged = shared.horizon.load(Ordering::Acquire).min(t_pass);
         Monitor {
             shared,
             inboxes,
@@ -168,7 +170,7 @@ impl<'a> Monitor<'a> {
             generation: shared.params_generation.load(Ordering::Acquire),
             params: shared.params.read().clone(),
             t_pass,
-            judged: t_pass,
+            judged,
             busy_max_ns: 0,
         }
     }
@@ -186,11 +188,17 @@ impl<'a> Monitor<'a> {
             return;
         }
         self.advance_clock(now);
+        // The inboxes' read lock from the table's read to the new horizon: a ball added meanwhile
+        // (under the write lock) either is in this pass's read, or begins at the horizon this
+        // pass publishes (see `Runtime::insert`); it never lives through a span judged without
+        // it. Once a removal has cleared a slot, no message can be sent to the departing ball.
+        let inboxes = self.inboxes.clone();
+        let inboxes = inboxes.read();
         let high = self.read_table();
         // The tree first: the balls get the fresher field sooner.
         self.publish_tree(high);
         let end = (self.t_pass + self.horizon_ns).max(self.judged);
-        self.judge_contacts(end);
+        self.judge_contacts(end, &inboxes);
         // Release: every message of this pass was sent before (see `Shared::horizon`).
         self.judged = end;
         self.shared.horizon.store(end, Ordering::Release);
@@ -265,7 +273,7 @@ impl<'a> Monitor<'a> {
 
     /// Judges every contact from where the judged time ends to `end` and sends the responses
     /// (with collisions on and a span of any length).
-    fn judge_contacts(&mut self, end: u64) {
+    fn judge_contacts(&mut self, end: u64, inboxes: &[Option<Sender<Message>>]) {
         let params = &self.params;
         let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
         let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
@@ -286,7 +294,7 @@ impl<'a> Monitor<'a> {
                 drift: resting_drift(params.integrator),
             },
         };
-        self.contacts.run(self.shared, &self.inboxes, &self.records, &setting);
+        self.contacts.run(self.shared, inboxes, &self.records, &setting);
     }
 
     /// Counts a pass begun at `pass_start` and the time it took, for the report.
@@ -445,14 +453,11 @@ impl ContactPass {
     /// span ([`ContactPass::gather`]), the candidate pairs ([`ContactPass::find_pairs`]), one
     /// solve of every contact ([`ContactPass::solve`]) and one message per touched ball
     /// ([`ContactPass::send_responses`]).
-    fn run(&mut self, shared: &Shared, inboxes: &Inboxes, records: &[BallRecord], s: &PassSetting) {
-        // Held for the whole contact part: once a removal has cleared a slot, no message can be
-        // sent to the departing ball (see `Inboxes`).
-        let inboxes = inboxes.read();
-        self.gather(records, &inboxes, s);
+    fn run(&mut self, shared: &Shared, inboxes: &[Option<Sender<Message>>], records: &[BallRecord], s: &PassSetting) {
+        self.gather(records, inboxes, s);
         self.find_pairs(s);
         self.solve(shared, s);
-        self.send_responses(shared, records, &inboxes, s);
+        self.send_responses(shared, records, inboxes, s);
         // Relaxed: a statistic (the monitor is its only writer).
         shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
     }
@@ -495,9 +500,9 @@ impl ContactPass {
 
     /// The ball of record `r` (uniform acceleration `a`) at the span's start: as the last pass
     /// left it if it has published nothing since; otherwise from its record, moved on as its
-    /// thread will move it, each response in flight applied at its instant (the thread holds each
-    /// to that instant, and every one in flight is for an earlier span, so before this one's
-    /// start).
+    /// thread will move it, in the same stretches (see `ball_thread::catch_up`): each response in
+    /// flight applied at its instant (the thread holds each to that instant, and every one in
+    /// flight is for an earlier span, so before this one's start), then on to the end of its span.
     fn span_start(&mut self, r: &BallRecord, a: DVec2, s: &PassSetting) -> (DVec2, DVec2) {
         let last = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start);
         if let Some(j) = last.filter(|j| j.record_time == r.time && j.record_applied == r.applied) {
@@ -511,6 +516,11 @@ impl ContactPass {
             }
             v += m.dv;
             x += m.shift_at(t, s.time_scale);
+            // On to the end of the response's span in one stretch, as the ball goes.
+            if m.stamp > t {
+                s.motion.advance(&mut x, &mut v, &r.ball, a, t, m.stamp, &mut self.scratch);
+                t = m.stamp;
+            }
         }
         s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
         // How far the ball's own motion took it from where the last pass left it.
