@@ -21,6 +21,7 @@ use glam::DVec2;
 use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
+use crate::physics::Field;
 use crate::physics::{
     Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
     SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
@@ -247,7 +248,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             // monitor sees them applied). That is at most a horizon of simulated time after the
             // pause was asked for.
             let (from, applied) = (state.time, state.applied);
-            catch_up(horizon, horizon, &mut state, &params, max_step, &shared, &mut scratch);
+            catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
             // The commands take effect at the paused instant, so that a velocity set while paused
             // is the velocity the paused table shows: once the ball stands at the horizon as it
             // is now (the one read above may be older, if the thread waited since).
@@ -264,7 +265,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
         }
         let (from, applied) = (state.time, state.applied);
-        let source = catch_up(clock.min(horizon), horizon, &mut state, &params, max_step, &shared, &mut scratch);
+        let source = catch_up(clock.min(horizon), &mut state, &params, max_step, &shared, &mut scratch);
         if state.time > from {
             state.count(source);
             state.updates += 1;
@@ -316,18 +317,17 @@ fn take_inbox(inbox: &Receiver<Message>, state: &mut BallState, commands: &mut C
 /// once), so the ball never integrates through an impact the monitor judged. Responses not due
 /// by `target` stay held. Returns where the last stretch's attraction came from.
 ///
-/// The ball's stretches are the monitor's (see `monitor::ContactPass::span_start`, which carries
-/// the ball the same way): up to each response's `apply_at`, and once a response is applied, on
-/// to the end of the span it was judged over (its `stamp`, never past `horizon`) in one stretch,
-/// even past `target`. The ball then ends where the monitor put it, under any integrator: cut at
+/// The ball's stretches are the monitor's (see `monitor::follow`, which carries the ball the same
+/// way): up to each response's `apply_at`, and once a response is applied, on to the end of the
+/// span it was judged over (its `stamp`) in one stretch, even past `target` and the horizon read
+/// before the inbox (a response is in the inbox only once its span is judged, every contact of
+/// the ball in it included). The ball then ends where the monitor put it, under any integrator: cut at
 /// the ball's own cycles instead, a stretch ends elsewhere under one that is not exact for a
 /// uniform force (semi-implicit Euler drops `g·Σh²/2` over steps `h`), and a ball resting in a
 /// pile rose a few micrometres above where the monitor had put it every pass and fell back the
 /// next, so that the pile's resting solve never converged.
-#[allow(clippy::too_many_arguments)]
 fn catch_up(
     target: u64,
-    horizon: u64,
     state: &mut BallState,
     params: &Params,
     max_step: f64,
@@ -350,11 +350,17 @@ fn catch_up(
         }
         state.held.pop_front();
         state.apply(&m, params);
-        let end = m.stamp.min(horizon);
-        if end > state.time {
-            let dt = clock_seconds(end, state.time) * scale;
+        if m.stamp > state.time {
+            let dt = clock_seconds(m.stamp, state.time) * scale;
             source = advance(state, dt, max_step, params, shared, scratch);
-            state.time = end;
+            state.time = m.stamp;
+        }
+        if state.time == m.stamp && params.effects.collisions.is_some() {
+            // At the end of its span the response has put the ball inside the field, as the
+            // monitor carried it; what is left past a wall is what its motion and the monitor's
+            // differ by (micrometres, after a long starvation), which the wall holds.
+            let radius = state.ball.radius();
+            hold_inside(&mut state.ball.position, radius, &params.field);
         }
     }
     if target > state.time {
@@ -728,11 +734,18 @@ fn take_substeps(
     taken
 }
 
+/// Puts a ball that is past a wall back on it, leaving its velocity alone.
+pub(super) fn hold_inside(position: &mut DVec2, radius: f64, field: &Field) {
+    position.x = position.x.clamp(radius.min(field.width - radius), (field.width - radius).max(radius));
+    position.y = position.y.clamp(radius.min(field.height - radius), (field.height - radius).max(radius));
+}
+
 /// The walls as a ball's own thread meets them. With collisions on, walls are contacts in the
 /// monitor's solver, judged ahead with the ball's other contacts (that is what stands a pile on
 /// the floor) and sent as part of its responses: between responses the ball moves in free motion,
-/// as the monitor predicts it, and its thread does nothing at a wall. Holding it inside here as
-/// well would be a second response to the one contact, unknown to the monitor: a ball held on the
+/// as the monitor predicts it, and its thread does nothing at a wall within a span (at a span's
+/// end `catch_up` holds it inside, as the monitor does). Holding it inside here as well would be
+/// a second response to the one contact, unknown to the monitor: a ball held on the
 /// floor while the solver's response lifted it out of the overlap it predicted ended that much
 /// too high (millimetres per pass in a pile, which then never came to rest). A ball is past a
 /// wall only inside a span whose response, judged ahead, puts it back by the span's end. Without
