@@ -192,20 +192,29 @@ impl Runtime {
             monitor: Mutex::new(None),
             started: Instant::now(),
         };
-        // The instant the first balls begin at and the monitor's first span starts from (see
+        // The instant the balls begin at and the monitor's first span starts from (see
         // `Runtime::insert`). Release: see `Shared::horizon`.
-        runtime.shared.horizon.store(runtime.shared.clock(Instant::now()), Ordering::Release);
+        let shared = &runtime.shared;
+        let begin = shared.clock(Instant::now());
+        shared.horizon.store(begin, Ordering::Release);
+        for ball in &scene.balls {
+            runtime.insert(*ball, Some(ball.id))?;
+        }
+        // No ball went past the horizon while the others' threads were spawned (a thousand take
+        // most of a second on a busy machine): the time that took was not simulated, and the
+        // clock drops it, as a pause does, so that the monitor's first span is one of its
+        // periods and the whole field starts at one instant, with the caller's clock. The
+        // monitor is not running yet, so this is the offset's only writer. Relaxed load: no
+        // other thread writes it; Release store: see `Shared::clock_offset`.
+        let spawned = shared.clock(Instant::now()).saturating_sub(begin);
+        let offset = shared.clock_offset.load(Ordering::Relaxed);
+        shared.clock_offset.store(offset + spawned, Ordering::Release);
         let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
         let monitor = std::thread::Builder::new()
             .name("collision-monitor".into())
             .spawn(move || monitor::run_monitor(shared, inboxes))
             .map_err(|e| EngineError::Spawn(e.to_string()))?;
         *runtime.monitor.lock() = Some(monitor);
-        // The monitor first: spawning a thousand ball threads on a busy machine takes a while,
-        // and the balls already running must not go unwatched meanwhile.
-        for ball in &scene.balls {
-            runtime.insert(*ball, Some(ball.id))?;
-        }
         Ok(runtime)
     }
 

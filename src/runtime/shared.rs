@@ -61,9 +61,11 @@ pub(crate) struct Shared {
     /// cycle and take the read lock only when it moved — the hot path never locks.
     pub params_generation: AtomicU64,
     pub paused: AtomicBool,
-    /// The runtime's clock (see [`Shared::clock`]): wall time since `epoch` less this, ns. Only
-    /// the monitor raises it, by the time nobody simulated: while paused, and when it woke too
-    /// late to have watched the contacts meanwhile (a stalled process). Store Release, load
+    /// The runtime's clock (see [`Shared::clock`]): wall time since `epoch` less this, ns. It is
+    /// raised by the time nobody simulated: once by the runtime as it starts, by the time the
+    /// ball threads took to spawn (before the monitor runs), then only by the monitor, while
+    /// paused, and when it woke too late to have watched the contacts meanwhile (a stalled
+    /// process). Store Release, load
     /// Acquire: a ball that reads a horizon (Acquire, below) then this offset sees at least the
     /// offset the monitor stored before that horizon, so it never sees a horizon of the new
     /// clock with the old offset.
