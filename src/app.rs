@@ -124,6 +124,9 @@ struct App {
     options: AppOptions,
     scene: Scene,
     engine: Box<dyn Engine>,
+    /// The engine last switched to, whether it started or not: E goes on from it (so that an
+    /// engine that refuses the scene, as the exact one refuses drag, is skipped by the next E).
+    engine_tried: EngineKind,
     /// When the engine last ticked.
     last_tick: Instant,
     gfx: Option<Graphics>,
@@ -194,6 +197,7 @@ impl App {
         let settings = settings_for(&scene, index, &scene.effects);
         let now = Instant::now();
         Ok(App {
+            engine_tried: options.engine,
             show_panel: options.panel,
             report: AppReport {
                 scene: options.scene_name.clone(),
@@ -418,6 +422,7 @@ impl App {
                 }
             }
             Command::Engine(kind) => {
+                self.engine_tried = kind;
                 // The new engine starts from where the balls are now.
                 let mut scene = self.scene.clone();
                 self.engine.sample(&mut self.balls);
@@ -501,7 +506,7 @@ impl App {
             KeyCode::KeyD => Command::ToggleDrag,
             KeyCode::KeyN => Command::ToggleAttraction,
             KeyCode::KeyC => Command::ToggleCollisions,
-            KeyCode::KeyE => Command::Engine(self.engine.kind().next()),
+            KeyCode::KeyE => Command::Engine(self.engine_tried.next()),
             KeyCode::KeyV => Command::ToggleVectors,
             KeyCode::KeyM => Command::ToggleCentreOfMass,
             KeyCode::KeyT => Command::ToggleTraces,
