@@ -206,11 +206,11 @@ impl RunReport {
                 "calendar     {} predictions; invalidated {} superseded, {} by a partner's change; peak {} events",
                 c.predictions, x.invalidated_superseded, x.invalidated_partner, x.calendar_peak
             );
-            if c.tc_elastic + c.rests + c.slides + c.hops > 0 {
+            if c.soft_collisions + c.rests + c.slides + c.hops > 0 {
                 let _ = writeln!(
                     s,
-                    "rest model   {} TC-elastic collisions, {} rests, {} slides, {} wakes, {} hops; {} at rest, {} sliding now",
-                    c.tc_elastic, c.rests, c.slides, c.wakes, c.hops, x.at_rest, x.sliding
+                    "rest model   {} soft collisions (collapse model), {} rests, {} slides, {} wakes, {} hops; {} at rest, {} sliding now",
+                    c.soft_collisions, c.rests, c.slides, c.wakes, c.hops, x.at_rest, x.sliding
                 );
             }
         }

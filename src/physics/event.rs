@@ -323,15 +323,26 @@ pub fn collide(n: DVec2, v_rel: f64, outgoing: f64, a: Mobility, b: Mobility) ->
     Some(Collision { impulse, velocity_change_a: a.response(-impulse * n), velocity_change_b: b.response(impulse * n) })
 }
 
-/// The restitution of a collision under the TC model of Luding & McNamara ("How to handle the
-/// inelastic collapse of a dissipative hard-sphere gas with the TC model", Granular Matter 1,
-/// 1998): a collision within `tc` seconds of either ball's previous one is elastic. An inelastic
-/// cluster would otherwise collide infinitely often in a finite time (the inelastic collapse);
-/// the model stops the dissipation where collisions come faster than `1/tc`, which is where a
-/// real contact would no longer be a binary collision anyway.
+/// The restitution of a collision at normal approach speed `speed` for a material of
+/// restitution `e` (the scene's), under the velocity-dependent model of Bizon, Shattuck, Swift,
+/// McCormick & Swinney ("Patterns in 3D vertically oscillated granular layers", Phys. Rev. Lett.
+/// 80, 1998): `e` at and above `v0`, rising continuously to 1 as the speed falls to 0,
+/// `1 − (1 − e)·(speed/v0)^¾` below.
+///
+/// With a constant e < 1, a cluster of balls can collide infinitely often in a finite time, the
+/// relative speeds shrinking geometrically (the inelastic collapse, McNamara & Young 1992); an
+/// event-driven engine would grind to a halt on it. Collisions slower than `v0` losing ever less
+/// of their speed stop the collapse while leaving everything faster as the scene says (the TC
+/// model of Luding & McNamara 1998 stops it too, by making collisions elastic when they come
+/// faster than a time `tc`, but a squeezed, fast-rattling row then keeps its energy for ever).
+/// `e = 1` is returned unchanged.
 #[inline]
-pub fn tc_restitution(e: f64, since_a: f64, since_b: f64, tc: f64) -> f64 {
-    if e < 1.0 && (since_a < tc || since_b < tc) { 1.0 } else { e }
+pub fn soft_restitution(e: f64, speed: f64, v0: f64) -> f64 {
+    if e >= 1.0 || !(speed < v0) {
+        return e;
+    }
+    // A pair that does not close (speed ≤ 0) has nothing to lose.
+    1.0 - (1.0 - e) * (speed.max(0.0) / v0).powf(0.75)
 }
 
 /// Whether the cone spanned by the contact normals `normals` (unit vectors pointing from each

@@ -35,7 +35,7 @@ pub use effects::{
 };
 pub use event::{
     Collision, Mobility, collide, cone_contains, entry_time, first_entry, flight, pair_gap_polynomial, pair_time,
-    plane_time, tc_restitution,
+    plane_time, soft_restitution,
 };
 pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BodyProps, Forces, PointForce, TREE_MIN_BALLS};

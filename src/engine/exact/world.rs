@@ -44,10 +44,13 @@
 //! components: the floor takes a pile's weight under vertical gravity), as is every impulse a pile
 //! passes on, so the walls' impulses balance the momentum exactly.
 //!
-//! **Inelastic collapse** of free balls (ever faster collisions in a cluster with e < 1) is
-//! stopped by the TC model ([`tc_restitution`]): a collision within `tc` of either ball's
-//! previous one is elastic. `tc` is chosen so that a ball in TC-elastic bounces on a support is
-//! slow enough to come to rest by the rule above.
+//! - whatever the collision, a ball it leaves slower than the rest speed `√(2·a·h)` (a its
+//!   acceleration) on supports that hold it comes to rest: a row of balls squeezed between two
+//!   walls on the floor stops rattling.
+//!
+//! **Inelastic collapse** (infinitely many collisions in a finite time, in a cluster with e < 1)
+//! is stopped by a restitution that rises to 1 for collisions slower than `collapse_speed`
+//! ([`soft_restitution`], the model of Bizon et al. 1998), counted as `soft_collisions`.
 //!
 //! None of this acts at e = 1 on balls that do not rest on each other: an elastic gas, with or
 //! without gravity, is exact to rounding.
@@ -59,7 +62,7 @@ use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
     Ball, BallId, BallKind, Effects, Field, Mobility, WallImpulses, coincident_normal, collide, cone_contains, flight,
-    pair_time, plane_time, tc_restitution,
+    pair_time, plane_time, soft_restitution,
 };
 
 /// The walls' inward normals, in the order of [`Partner::Wall`]: left, right, bottom, top.
@@ -69,13 +72,16 @@ const WALL_NORMALS: [DVec2; 4] = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y
 /// acceleration (a ball balanced on top of one other).
 const CONE_SLACK: f64 = 1e-9;
 
+/// The most balls [`World::settle`] considers coming to rest together.
+const MAX_GROUP: usize = 32;
+
 /// The parameters of the rest and TC models.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ExactParams {
     /// A rebound lower than this fraction of the ball's diameter ends in sliding or rest.
     pub rest_height: f64,
-    /// The TC model's time, s: a collision this soon after either ball's previous one is elastic.
-    pub tc: f64,
+    /// Below this normal speed, m/s, a collision loses ever less of it (see [`soft_restitution`]).
+    pub collapse_speed: f64,
 }
 
 /// The default rebound height below which a ball rests, as a fraction of its diameter: far below
@@ -86,14 +92,14 @@ impl ExactParams {
     /// The parameters for balls of smallest diameter `smallest` under `gravity` (m/s²), at a
     /// typical speed `speed` (m/s, for a field without gravity).
     ///
-    /// With gravity, `tc = √(2·h/g)` for the rest height `h`: a ball that bounces TC-elastically
-    /// on a support (more often than every `tc`) rises at most `g·tc/2 = √(g·h/2)`, half the
-    /// rest speed `√(2·g·h)`, so it comes to rest at its next landing. Without gravity nothing
-    /// rests, and `tc` is the time to cross `h` at the typical speed (at least 1 mm/s).
+    /// With gravity the collapse speed is twice the smallest ball's rest speed `√(2·g·h)`: a
+    /// bounce that slow still loses a good part of its speed (60 % of what the scene's e takes),
+    /// so a bouncing ball gets below the rest speed in a few bounces and lands. Without gravity
+    /// nothing rests, and it is a thousandth of the typical speed (at least 1 µm/s).
     pub fn for_scene(smallest: f64, gravity: f64, speed: f64) -> ExactParams {
         let h = REST_HEIGHT * smallest;
-        let tc = if gravity > 0.0 { (2.0 * h / gravity).sqrt() } else { h / speed.max(1e-3) };
-        ExactParams { rest_height: REST_HEIGHT, tc }
+        let collapse_speed = if gravity > 0.0 { 2.0 * (2.0 * gravity * h).sqrt() } else { 1e-3 * speed.max(1e-3) };
+        ExactParams { rest_height: REST_HEIGHT, collapse_speed }
     }
 }
 
@@ -130,8 +136,6 @@ struct Cold {
     /// The pull on it (the key ball), N.
     force: DVec2,
     motion: Motion,
-    /// When its last collision or bounce was (the TC model's clock).
-    last: f64,
     /// Since when its weight is on the walls (resting or sliding).
     since: f64,
 }
@@ -145,14 +149,19 @@ pub struct ExactCounters {
     pub cell_crossings: u64,
     /// Balls predicted.
     pub predictions: u64,
-    /// Collisions the TC model made elastic (inelastic collapse averted).
-    pub tc_elastic: u64,
+    /// Collisions and bounces slower than the collapse speed, whose restitution the collapse
+    /// model raised towards 1.
+    pub soft_collisions: u64,
     /// Balls that came to rest; balls that landed sliding on a wall; balls woken from rest.
     pub rests: u64,
     pub slides: u64,
     pub wakes: u64,
+    /// Groups of slow balls that came to rest together, each held by the others.
+    pub group_rests: u64,
     /// Slow collisions on a ball that could not hold the other, given the minimum rebound.
     pub hops: u64,
+    /// Collisions resolved with a second support at once (see `World::wedge_impact`).
+    pub wedges: u64,
     /// Collisions whose impulse a second, rounding-sized top-up kept separating.
     pub separation_fixes: u64,
 }
@@ -242,7 +251,6 @@ impl World {
             diameter: b.diameter,
             force: DVec2::ZERO,
             motion: Motion::Free,
-            last: f64::NEG_INFINITY,
             since: self.now,
         });
         self.count.push(0);
@@ -328,6 +336,17 @@ impl World {
             }
         }
         w
+    }
+
+    /// Debugging: every ball's motion and state, and the calendar's earliest events.
+    pub fn dump(&self) -> String {
+        let mut out = String::new();
+        for i in 0..self.len() {
+            let (x, v) = self.at(i);
+            out += &format!("{i} {:?} x={x:?} v={v:?} a={:?}\n", self.cold[i].motion, self.hot[i].a);
+        }
+        out += &format!("calendar len {} next {:?}\n", self.calendar.len(), self.calendar.next_time());
+        out
     }
 
     // ---- accelerations ------------------------------------------------------------------
@@ -534,6 +553,11 @@ impl World {
             return;
         }
         self.now = self.now.max(ev.time);
+        if std::env::var("EXACT_TRACE").ok().and_then(|v| v.parse::<f64>().ok()).is_some_and(|t0| self.now >= t0) {
+            let (x, v) = self.at(i);
+            eprintln!("DBG t={:.17} i={i} {:?} {:?} x={x:?} v={v:?} a={:?} partner_motion={:?}", self.now, ev.partner, self.cold[i].motion, self.hot[i].a,
+              if let Partner::Ball(j,_) = ev.partner { Some((self.cold[j as usize].motion, self.at(j as usize))) } else { None });
+        }
         match ev.partner {
             Partner::Ball(j, cj) => {
                 if self.count[j as usize] != cj {
@@ -548,6 +572,13 @@ impl World {
                 self.counters.cell_crossings += 1;
                 self.cells.cross(i, s);
                 self.predict(i);
+            }
+        }
+        if std::env::var("EXACT_NAN").is_ok() {
+            for k in 0..self.len() {
+                if !(self.hot[k].x.is_finite() && self.hot[k].v.is_finite()) {
+                    panic!("NaN ball {k} after event {ev:?} at {}: {:?} {:?}", self.now, self.hot[k], self.cold[k]);
+                }
             }
         }
         let (serial, balls) = (&self.serial, self.hot.len());
@@ -613,6 +644,90 @@ impl World {
         });
     }
 
+    /// Whether ball `k`, moving, is slower than its rest speed now.
+    fn slow(&self, k: usize) -> bool {
+        let a = self.free_accel(k).length();
+        self.cold[k].motion != Motion::Resting && self.at(k).1.length() < self.rest_speed(k, a)
+    }
+
+    /// Puts ball `k` to rest if it is slow and held: by its supports (walls and balls at rest),
+    /// or together with slow balls it touches, each held by the others and the supports (two
+    /// balls leaning on each other in a gap would otherwise hop on each other for ever). The
+    /// group is the largest such set among the slow balls reached from `k` through contacts (at
+    /// most [`MAX_GROUP`]), found by dropping the balls not held until none is left to drop.
+    /// Returns whether `k` came to rest; the caller restarts `k`'s course.
+    fn settle(&mut self, k: usize) -> bool {
+        if !self.slow(k) {
+            return false;
+        }
+        if self.supported(k) {
+            self.come_to_rest(k);
+            return true;
+        }
+        let mut group = vec![k];
+        let mut g = 0;
+        while g < group.len() && group.len() < MAX_GROUP {
+            let m = group[g];
+            g += 1;
+            let mut near = Vec::new();
+            self.cells.for_each_near(m, |j| near.push(j));
+            for j in near {
+                if j != m && !group.contains(&j) && self.slow(j) && self.touching(m, j) {
+                    group.push(j);
+                }
+            }
+        }
+        if group.len() == 1 {
+            return false;
+        }
+        let mut held = vec![true; group.len()];
+        loop {
+            let mut dropped = false;
+            for a in 0..group.len() {
+                if !held[a] {
+                    continue;
+                }
+                let m = group[a];
+                let xm = self.at(m).0;
+                self.contact_normals(m, xm);
+                for b in 0..group.len() {
+                    if b != a && held[b] && self.touching(m, group[b]) {
+                        let d = xm - self.at(group[b]).0;
+                        self.normals.push(d / d.length());
+                    }
+                }
+                if !cone_contains(&self.normals, -self.free_accel(m), CONE_SLACK) {
+                    held[a] = false;
+                    dropped = true;
+                }
+            }
+            if !dropped {
+                break;
+            }
+        }
+        if !held[0] {
+            return false;
+        }
+        for (a, &m) in group.iter().enumerate() {
+            if held[a] {
+                self.come_to_rest(m);
+                if m != k {
+                    self.restart_course(m);
+                    // Supersedes the event it had (a ball at rest has none).
+                    self.predict(m);
+                }
+            }
+        }
+        self.counters.group_rests += 1;
+        true
+    }
+
+    /// Whether balls `a` and `b` touch now (within a millionth of a diameter).
+    fn touching(&self, a: usize, b: usize) -> bool {
+        let d = self.at(a).0.distance(self.at(b).0);
+        d > 0.0 && d - (self.hot[a].r + self.hot[b].r) <= 1e-6 * self.cold[a].diameter.min(self.cold[b].diameter)
+    }
+
     /// Whether ball `i`'s supports (walls and balls at rest) can hold it against its acceleration.
     fn supported(&mut self, i: usize) -> bool {
         let (x, _) = self.at(i);
@@ -631,6 +746,12 @@ impl World {
             self.end_static(k);
             self.sync(k);
             self.hot[k].v = DVec2::ZERO;
+            // A ball woken on a wall it is pressed against slides on it.
+            let (x, r, a) = (self.hot[k].x, self.hot[k].r, self.free_accel(k));
+            let tol = 1e-6 * self.cold[k].diameter;
+            if let Some(w) = (0..4).find(|&w| self.wall_gap(w, x, r) <= tol && a.dot(WALL_NORMALS[w]) < 0.0) {
+                self.cold[k].motion = Motion::Sliding(w as u8);
+            }
             self.restart_course(k);
             self.counters.wakes += 1;
             self.woken.push(k);
@@ -654,6 +775,15 @@ impl World {
     /// (else it wakes).
     fn mobility(&mut self, k: usize, push: DVec2) -> Mobility {
         let inverse_mass = self.cold[k].inverse_mass;
+        if self.cold[k].motion == Motion::Resting {
+            let x = self.hot[k].x;
+            self.contact_normals(k, x);
+            if cone_contains(&self.normals, -push, CONE_SLACK) {
+                return Mobility::Fixed;
+            }
+            // Woken: free, or sliding if it lies on a wall it is pressed against.
+            self.wake(k);
+        }
         match self.cold[k].motion {
             Motion::Free => Mobility::Free { inverse_mass },
             Motion::Sliding(w) => {
@@ -665,16 +795,7 @@ impl World {
                     Mobility::Free { inverse_mass }
                 }
             }
-            Motion::Resting => {
-                let x = self.hot[k].x;
-                self.contact_normals(k, x);
-                if cone_contains(&self.normals, -push, CONE_SLACK) {
-                    Mobility::Fixed
-                } else {
-                    self.wake(k);
-                    Mobility::Free { inverse_mass }
-                }
-            }
+            Motion::Resting => Mobility::Fixed,
         }
     }
 
@@ -689,6 +810,7 @@ impl World {
 
     /// Ball `k` comes to rest now: its remaining momentum goes to its supports.
     fn come_to_rest(&mut self, k: usize) {
+        self.sync(k);
         self.bank_static(k);
         let push = self.cold[k].mass * self.hot[k].v;
         transmit(&mut self.impulses, push);
@@ -715,17 +837,42 @@ impl World {
             if coincident { dv.dot(n) } else { dr.dot(dv) / dist }
         };
         let vn = v_rel(&self.hot);
+        // How hard their accelerations press them together (> 0) in the motions that made this
+        // event due; judged again below in the motions the collision leaves them in.
+        let press_before = -(self.hot[j].a - self.hot[i].a).dot(n);
         let mob_i = self.mobility(i, -n);
         let mob_j = self.mobility(j, n);
         let e = match self.effects.collisions {
             Some(c) => c.restitution,
             None => 1.0,
         };
-        let e_eff = tc_restitution(e, self.now - self.cold[i].last, self.now - self.cold[j].last, self.params.tc);
+        let e_eff = soft_restitution(e, -vn, self.params.collapse_speed);
         if e_eff != e {
-            self.counters.tc_elastic += 1;
+            self.counters.soft_collisions += 1;
         }
-        let mut outgoing = if vn < 0.0 { -e_eff * vn } else { 0.0 };
+        // A free ball meeting a ball at rest while it touches another support it also closes on:
+        // the two contacts act at once (see `wedge_impact`).
+        let wedge = match (mob_i, mob_j) {
+            (Mobility::Free { .. }, Mobility::Fixed) => Some((i, -n)),
+            (Mobility::Fixed, Mobility::Free { .. }) => Some((j, n)),
+            _ => None,
+        };
+        if let Some((k, nk)) = wedge
+            && self.wedge_impact(k, nk, e_eff)
+        {
+            self.counters.collisions += 1;
+            self.counters.wedges += 1;
+            self.settle(k);
+            self.restart_course(k);
+            self.predict(k);
+            self.predict_others([k, k]);
+            return;
+        }
+        // At least a few units of rounding of their speeds: an event made due by an approach of
+        // rounding size (vn ~ −1e-17) must leave a pair that separates in the same arithmetic,
+        // or it is due again at once, for ever.
+        let floor = 4.0 * f64::EPSILON * (self.hot[i].v.length() + self.hot[j].v.length());
+        let mut outgoing = if vn < 0.0 { (-e_eff * vn).max(floor) } else { 0.0 };
         // Pressed together (their accelerations in their motions after this collision close the
         // gap) and slow: the rest model.
         let accel = |w: &World, k: usize, m: Mobility| match m {
@@ -736,7 +883,7 @@ impl World {
             }
             Mobility::Free { .. } => w.free_accel(k),
         };
-        let press = -(accel(self, j, mob_j) - accel(self, i, mob_i)).dot(n);
+        let press = press_before.max(-(accel(self, j, mob_j) - accel(self, i, mob_i)).dot(n));
         let h = self.params.rest_height * self.cold[i].diameter.min(self.cold[j].diameter);
         let v_rest = if press > 0.0 { (2.0 * press * h).sqrt() } else { 0.0 };
         let mut rest = [false; 2];
@@ -753,12 +900,19 @@ impl World {
                     }
                 }
             }
-            if rest[0] || rest[1] {
+            // Plastic only if every ball that moves stays: a ball at rest under one that is not
+            // would only be pressed again at once.
+            let movable = [mob_i != Mobility::Fixed, mob_j != Mobility::Fixed];
+            if (rest[0] || !movable[0]) && (rest[1] || !movable[1]) {
                 outgoing = 0.0;
             } else {
+                rest = [false; 2];
                 outgoing = v_rest;
                 self.counters.hops += 1;
             }
+        }
+        if std::env::var("EXACT_TRACE").ok().and_then(|v| v.parse::<f64>().ok()).is_some_and(|t0| self.now >= t0) {
+            eprintln!("  PAIR vn={vn:e} press_before={press_before} press={press} v_rest={v_rest} outgoing={outgoing} rest={rest:?} mob_i={mob_i:?} mob_j={mob_j:?} e_eff={e_eff}");
         }
         if let Some(c) = collide(n, vn, outgoing, mob_i, mob_j) {
             self.hot[i].v += c.velocity_change_a;
@@ -785,13 +939,70 @@ impl World {
             }
             if rest[s] {
                 self.come_to_rest(k);
+            } else {
+                self.settle(k);
             }
-            self.cold[k].last = self.now;
             self.restart_course(k);
         }
         self.predict(i);
         self.predict(j);
         self.predict_others([i, j]);
+    }
+
+    /// A free ball `k` that closes on a support along `nk` (the contact normal, pointing into
+    /// `k`) while it touches one other support (a wall or a ball at rest) that it closes on too,
+    /// now or once bounced off the first: both
+    /// contacts take their impulses at once, each reversing its normal velocity with its
+    /// restitution, `v′·n₁ = −e₁·v·n₁` and `v′·n₂ = −e₂·v·n₂` (in 2D the two fix `v′`).
+    ///
+    /// Resolved one after the other, such a pair of contacts passes the ball back and forth,
+    /// each collision turning a little of the velocity from one normal to the other: a ball that
+    /// drops into a gap a hair narrower than itself would take some 10⁵ collisions at one
+    /// instant. Returns false (and changes nothing) unless exactly one other support is closed on,
+    /// both impulses push and the ball leaves every support it touches.
+    fn wedge_impact(&mut self, k: usize, nk: DVec2, ek: f64) -> bool {
+        let v = self.hot[k].v;
+        if v.dot(nk) >= 0.0 {
+            return false;
+        }
+        let (x, r) = (self.hot[k].x, self.hot[k].r);
+        self.contact_normals(k, x);
+        let tol = 1e-6 * self.cold[k].diameter;
+        let walls: Vec<DVec2> = (0..4).filter(|&w| self.wall_gap(w, x, r) <= tol).map(|w| WALL_NORMALS[w]).collect();
+        // The other support it closes on now, or would close on once bounced off the first.
+        let v1 = v - (1.0 + ek) * v.dot(nk) * nk;
+        let mut other = None;
+        for &c in &self.normals {
+            if (c - nk).length_squared() < 1e-24 || (v.dot(c) >= 0.0 && v1.dot(c) >= 0.0) {
+                continue;
+            }
+            if other.is_some() {
+                return false;
+            }
+            other = Some(c);
+        }
+        let Some(nc) = other else { return false };
+        let det = nk.perp_dot(nc);
+        if det.abs() < 1e-12 {
+            return false;
+        }
+        let ec = if walls.contains(&nc) {
+            soft_restitution(self.field.restitution, -v.dot(nc), self.params.collapse_speed)
+        } else {
+            soft_restitution(self.effects.collisions.map_or(1.0, |c| c.restitution), -v.dot(nc), self.params.collapse_speed)
+        };
+        let (tk, tc) = (-ek * v.dot(nk), -ec * v.dot(nc));
+        let v_new = DVec2::new(tk * nc.y - tc * nk.y, nk.x * tc - nc.x * tk) / det;
+        let dv = v_new - v;
+        let m = self.cold[k].mass;
+        let (lk, lc) = (m * dv.perp_dot(nc) / det, m * nk.perp_dot(dv) / det);
+        if lk < 0.0 || lc < 0.0 || self.normals.iter().any(|n| v_new.dot(*n) < -1e-12 * v_new.length()) {
+            return false;
+        }
+        self.hot[k].v = v_new;
+        transmit(&mut self.impulses, -lk * nk);
+        transmit(&mut self.impulses, -lc * nc);
+        true
     }
 
     /// Ball i meets wall `k` now.
@@ -800,9 +1011,9 @@ impl World {
         let n = WALL_NORMALS[k];
         let v = self.hot[i].v;
         let vn = v.dot(n);
-        let e = tc_restitution(self.field.restitution, self.now - self.cold[i].last, f64::INFINITY, self.params.tc);
+        let e = soft_restitution(self.field.restitution, -vn, self.params.collapse_speed);
         if e != self.field.restitution {
-            self.counters.tc_elastic += 1;
+            self.counters.soft_collisions += 1;
         }
         let outgoing = if vn < 0.0 { -e * vn } else { 0.0 };
         let press = -self.hot[i].a.dot(n);
@@ -819,12 +1030,8 @@ impl World {
         transmit(&mut self.impulses, m * (v - v_new));
         self.hot[i].v = v_new;
         self.counters.wall_bounces += 1;
-        self.cold[i].last = self.now;
-        if landed {
-            let a = self.free_accel(i).length();
-            if v_new.length() < self.rest_speed(i, a) && self.supported(i) {
-                self.come_to_rest(i);
-            } else if self.cold[i].motion == Motion::Free {
+        if !self.settle(i) && landed {
+            if self.cold[i].motion == Motion::Free {
                 self.bank_static(i);
                 self.cold[i].motion = Motion::Sliding(k as u8);
                 self.counters.slides += 1;
