@@ -198,6 +198,9 @@ struct App {
     options: AppOptions,
     scene: Scene,
     engine: Box<dyn Engine>,
+    /// The engine last switched to, whether it started or not: E goes on from it (so that an
+    /// engine that refuses the scene, as the exact one refuses drag, is skipped by the next E).
+    engine_tried: EngineKind,
     /// When the engine last ticked.
     last_tick: Instant,
     gfx: Option<Graphics>,
@@ -270,6 +273,7 @@ impl App {
         let settings = settings_for(&scene, index, &scene.effects);
         let now = Instant::now();
         Ok(App {
+            engine_tried: options.engine,
             show_panel: options.panel,
             report: AppReport {
                 scene: options.scene_name.clone(),
@@ -563,6 +567,7 @@ impl App {
                 }
             }
             Command::Engine(kind) => {
+                self.engine_tried = kind;
                 // The new engine starts from where the balls are now.
                 let mut scene = self.scene.clone();
                 self.engine.sample(&mut self.balls);
@@ -640,7 +645,7 @@ impl App {
             }
             _ if !pressed || repeat => {}
             Action::Do(command) => self.carry_out(command, &source, event_loop),
-            Action::NextEngine => self.carry_out(Command::Engine(self.engine.kind().next()), &source, event_loop),
+            Action::NextEngine => self.carry_out(Command::Engine(self.engine_tried.next()), &source, event_loop),
         }
     }
 

@@ -1,0 +1,1170 @@
+//! The event-driven simulation itself: balls on parabolas, the calendar of their next events,
+//! and what happens at each event.
+//!
+//! **State.** Every ball carries its position and velocity at the instant it last changed
+//! course, that instant, and its constant acceleration since (Rapaport's "delayed states"): only
+//! the balls an event involves are touched, and where any ball is at any instant follows from
+//! [`flight`]. The clock [`World::now`] is the instant of the last event processed, or of the
+//! last `advance_to`.
+//!
+//! **Events.** A ball that moves has one event of its own in the calendar (see `calendar.rs`):
+//! the earliest of its next wall bounce, its next crossing into another cell and its next
+//! collision with a ball of the 3 × 3 cells around it, predicted by [`crate::physics`]'s event
+//! functions. A cell crossing changes no trajectory: the ball is moved to its new cell and
+//! predicted again against its new neighbours. A collision or a bounce changes the balls' courses:
+//! their counters go up (so every event predicted with their old course is dropped when it comes
+//! up) and they are predicted again.
+//!
+//! **Accelerations.** Gravity is the same for every free ball, so two free balls move in straight
+//! lines relative to each other and their contact time is the root of a quadratic. The key ball
+//! adds its pull, constant between two changes of the pull; when it changes, the key ball's course
+//! is cut at that instant and only its events are predicted again.
+//!
+//! **Resting contacts (the rest model).** Under gravity, a ball that bounces with e < 1 on the
+//! floor bounces infinitely often in a finite time, and a ball lying on the floor at e = 1 would
+//! "collide" with it continuously. Neither is a sequence of events an engine can finish, so:
+//! - a ball that meets a surface it is pressed against (by gravity and the pull) with a rebound
+//!   lower than `rest_height` times its diameter (rebound speed below `√(2·a·h)`) does not
+//!   rebound: against a wall it *slides* along it (the wall takes the normal part of its
+//!   acceleration and of any impulse pressing it in); if it is also slower than that and its
+//!   supports — walls and balls at rest, within a millionth of a diameter — can hold its weight
+//!   (the direction against its acceleration lies in the cone of their contact normals), it comes
+//!   to *rest*: velocity and acceleration zero, no events of its own;
+//! - a ball at rest stays so until it is pushed where its supports cannot hold it (an impulse
+//!   outside the cone wakes it; inside, the pile is immovable and passes the impulse on to the
+//!   walls), or a support of it wakes (balls resting on it are checked again, recursively);
+//! - a slow ball pressed against a ball that cannot hold it (on the slope of one ball) leaves at
+//!   the rebound speed `√(2·a·h)` instead of less: a hop of `h`, so that it slides off in events
+//!   no shorter than `2·√(2h/a)`.
+//!
+//! Only a pile's own weight is checked against its supports' cones, not the loads of the balls
+//! above (that is a statics problem): a frictionless pile that real physics would spread holds,
+//! as if its resting contacts had a little static friction. The weight of every ball at rest
+//! or sliding is carried by the walls' gauges at every instant (split by the signs of its
+//! components: the floor takes a pile's weight under vertical gravity), as is every impulse a pile
+//! passes on, so the walls' impulses balance the momentum exactly.
+//!
+//! - whatever the collision, a ball it leaves slower than the rest speed `√(2·a·h)` (a its
+//!   acceleration) on supports that hold it comes to rest: a row of balls squeezed between two
+//!   walls on the floor stops rattling.
+//!
+//! **Inelastic collapse** (infinitely many collisions in a finite time, in a cluster with e < 1)
+//! is stopped by a restitution that rises to 1 for collisions slower than `collapse_speed`
+//! ([`soft_restitution`], the model of Bizon et al. 1998), counted as `soft_collisions`.
+//!
+//! None of this acts at e = 1 on balls that do not rest on each other: an elastic gas, with or
+//! without gravity, is exact to rounding.
+
+use glam::DVec2;
+use serde::Serialize;
+
+use super::calendar::{Calendar, CalendarStats, Event, Partner};
+use super::cells::Cells;
+use crate::physics::{
+    Ball, BallId, BallKind, Effects, Field, Mobility, WallImpulses, coincident_normal, collide, cone_contains, flight,
+    pair_time, plane_time, soft_restitution,
+};
+
+/// The walls' inward normals, in the order of [`Partner::Wall`]: left, right, bottom, top.
+const WALL_NORMALS: [DVec2; 4] = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y];
+
+/// Angle, rad, within which a contact normal counts as pointing straight against the
+/// acceleration (a ball balanced on top of one other).
+const CONE_SLACK: f64 = 1e-9;
+
+/// The most balls [`World::settle`] considers coming to rest together.
+const MAX_GROUP: usize = 32;
+
+/// The parameters of the rest and TC models.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ExactParams {
+    /// A rebound lower than this fraction of the ball's diameter ends in sliding or rest.
+    pub rest_height: f64,
+    /// Below this normal speed, m/s, a collision loses ever less of it (see [`soft_restitution`]).
+    pub collapse_speed: f64,
+}
+
+/// The default rebound height below which a ball rests, as a fraction of its diameter: far below
+/// what anyone sees, far above rounding.
+pub const REST_HEIGHT: f64 = 1e-6;
+
+impl ExactParams {
+    /// The parameters for balls of smallest diameter `smallest` under `gravity` (m/s²), at a
+    /// typical speed `speed` (m/s, for a field without gravity).
+    ///
+    /// With gravity the collapse speed is twice the smallest ball's rest speed `√(2·g·h)`: a
+    /// bounce that slow still loses a good part of its speed (60 % of what the scene's e takes),
+    /// so a bouncing ball gets below the rest speed in a few bounces and lands. Without gravity
+    /// nothing rests, and it is a thousandth of the typical speed (at least 1 µm/s).
+    pub fn for_scene(smallest: f64, gravity: f64, speed: f64) -> ExactParams {
+        let h = REST_HEIGHT * smallest;
+        let collapse_speed = if gravity > 0.0 { 2.0 * (2.0 * gravity * h).sqrt() } else { 1e-3 * speed.max(1e-3) };
+        ExactParams { rest_height: REST_HEIGHT, collapse_speed }
+    }
+}
+
+/// How a ball moves now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Motion {
+    Free,
+    /// On wall `k` (0..4), its normal acceleration taken by the wall.
+    Sliding(u8),
+    /// At rest on its supports.
+    Resting,
+}
+
+/// What predicting and processing need of a ball, in one 64-byte cache line: its position and
+/// velocity at instant `t`, its acceleration since, and its radius.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(align(64))]
+struct Hot {
+    x: DVec2,
+    v: DVec2,
+    a: DVec2,
+    t: f64,
+    r: f64,
+}
+
+/// The rest of a ball.
+#[derive(Clone, Copy, Debug)]
+struct Cold {
+    id: BallId,
+    kind: BallKind,
+    mass: f64,
+    inverse_mass: f64,
+    diameter: f64,
+    /// The pull on it (the key ball), N.
+    force: DVec2,
+    motion: Motion,
+    /// Since when its weight is on the walls (resting or sliding).
+    since: f64,
+}
+
+/// What the engine counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ExactCounters {
+    /// Ball–ball collisions.
+    pub collisions: u64,
+    pub wall_bounces: u64,
+    pub cell_crossings: u64,
+    /// Balls predicted.
+    pub predictions: u64,
+    /// Collisions and bounces slower than the collapse speed, whose restitution the collapse
+    /// model raised towards 1.
+    pub soft_collisions: u64,
+    /// Balls that came to rest; balls that landed sliding on a wall; balls woken from rest.
+    pub rests: u64,
+    pub slides: u64,
+    pub wakes: u64,
+    /// Groups of slow balls that came to rest together, each held by the others.
+    pub group_rests: u64,
+    /// Slow collisions on a ball that could not hold the other, given the minimum rebound.
+    pub hops: u64,
+    /// Collisions resolved with a second support at once (see `World::wedge_impact`).
+    pub wedges: u64,
+    /// Collisions whose impulse a second, rounding-sized top-up kept separating.
+    pub separation_fixes: u64,
+}
+
+/// The event-driven simulation (see the module comment).
+#[derive(Clone, Debug)]
+pub struct World {
+    hot: Vec<Hot>,
+    cold: Vec<Cold>,
+    /// Per ball: its course counter (up at every change of course) and its prediction serial
+    /// (up at every prediction), see `calendar.rs`.
+    count: Vec<u32>,
+    serial: Vec<u32>,
+    cells: Cells,
+    calendar: Calendar,
+    now: f64,
+    field: Field,
+    effects: Effects,
+    gravity: DVec2,
+    params: ExactParams,
+    max_balls: usize,
+    next_id: u32,
+    /// Impulses the walls took, banked (the loads of balls at rest are added when read).
+    impulses: WallImpulses,
+    pub counters: ExactCounters,
+    /// Scratch: balls woken, and balls come to rest, during one event; contact normals.
+    woken: Vec<usize>,
+    rested: Vec<usize>,
+    normals: Vec<DVec2>,
+}
+
+/// Adds to the gauges the impulse `push` that a ball gives its supports (and they pass on to the
+/// walls): its −x part to the left wall, +x to the right, −y to the floor, +y to the top.
+fn transmit(impulses: &mut WallImpulses, push: DVec2) {
+    if push.x < 0.0 {
+        impulses.left -= push.x;
+    } else {
+        impulses.right += push.x;
+    }
+    if push.y < 0.0 {
+        impulses.bottom -= push.y;
+    } else {
+        impulses.top += push.y;
+    }
+}
+
+impl World {
+    /// A world of `balls` (their ids kept; sorted by id) in `field` under `effects` (drag and
+    /// attraction are the caller's to refuse; they are ignored here).
+    pub fn new(field: Field, effects: Effects, balls: &[Ball], max_balls: usize, params: ExactParams) -> World {
+        let mut sorted = balls.to_vec();
+        sorted.sort_by_key(|b| b.id);
+        let mut w = World {
+            hot: Vec::new(),
+            cold: Vec::new(),
+            count: Vec::new(),
+            serial: Vec::new(),
+            cells: Cells::default(),
+            calendar: Calendar::new(),
+            now: 0.0,
+            field,
+            effects: Effects { drag: None, attraction: None, ..effects },
+            gravity: effects.gravity.map_or(DVec2::ZERO, |g| g.g),
+            params,
+            max_balls,
+            next_id: sorted.iter().map(|b| b.id.0 + 1).max().unwrap_or(0),
+            impulses: WallImpulses::default(),
+            counters: ExactCounters::default(),
+            woken: Vec::new(),
+            rested: Vec::new(),
+            normals: Vec::new(),
+        };
+        for b in &sorted {
+            w.push_ball(*b);
+        }
+        w.rebuild();
+        w
+    }
+
+    fn push_ball(&mut self, b: Ball) {
+        self.hot.push(Hot { x: b.position, v: b.velocity, a: DVec2::ZERO, t: self.now, r: b.radius() });
+        self.cold.push(Cold {
+            id: b.id,
+            kind: b.kind,
+            mass: b.mass,
+            inverse_mass: 1.0 / b.mass,
+            diameter: b.diameter,
+            force: DVec2::ZERO,
+            motion: Motion::Free,
+            since: self.now,
+        });
+        self.count.push(0);
+        self.serial.push(0);
+    }
+
+    // ---- reading ------------------------------------------------------------------------
+
+    pub fn now(&self) -> f64 {
+        self.now
+    }
+
+    pub fn len(&self) -> usize {
+        self.hot.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.hot.is_empty()
+    }
+
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
+
+    pub fn params(&self) -> ExactParams {
+        self.params
+    }
+
+    pub fn calendar_stats(&self) -> CalendarStats {
+        self.calendar.stats
+    }
+
+    /// Events waiting in the calendar, live or dropped-to-be.
+    pub fn calendar_len(&self) -> usize {
+        self.calendar.len()
+    }
+
+    /// Balls at rest now, and sliding on a wall.
+    pub fn resting(&self) -> (usize, usize) {
+        let r = self.cold.iter().filter(|c| c.motion == Motion::Resting).count();
+        let s = self.cold.iter().filter(|c| matches!(c.motion, Motion::Sliding(_))).count();
+        (r, s)
+    }
+
+    /// Position and velocity of ball `i` now.
+    #[inline]
+    fn at(&self, i: usize) -> (DVec2, DVec2) {
+        let h = &self.hot[i];
+        flight(h.x, h.v, h.a, self.now - h.t)
+    }
+
+    /// Ball `i` now.
+    pub fn ball(&self, i: usize) -> Ball {
+        let (position, velocity) = self.at(i);
+        let c = &self.cold[i];
+        Ball { id: c.id, kind: c.kind, position, velocity, mass: c.mass, diameter: c.diameter }
+    }
+
+    /// Every ball now, sorted by id, into `out` (cleared first).
+    pub fn sample(&self, out: &mut Vec<Ball>) {
+        out.clear();
+        out.extend((0..self.len()).map(|i| self.ball(i)));
+    }
+
+    pub fn index_of(&self, id: BallId) -> Option<usize> {
+        self.cold.binary_search_by_key(&id, |c| c.id).ok()
+    }
+
+    pub fn key_index(&self) -> Option<usize> {
+        self.cold.iter().position(|c| c.kind == BallKind::Key)
+    }
+
+    /// The walls' impulses so far, the weight of the balls at rest or sliding included up to now.
+    pub fn wall_impulses(&self) -> WallImpulses {
+        let mut w = self.impulses;
+        for i in 0..self.len() {
+            if self.cold[i].motion != Motion::Free {
+                transmit(&mut w, self.static_push(i) * (self.now - self.cold[i].since));
+            }
+        }
+        w
+    }
+
+    /// Debugging: every ball's motion and state, and the calendar's earliest events.
+    pub fn dump(&self) -> String {
+        let mut out = String::new();
+        for i in 0..self.len() {
+            let (x, v) = self.at(i);
+            out += &format!("{i} {:?} x={x:?} v={v:?} a={:?}\n", self.cold[i].motion, self.hot[i].a);
+        }
+        out += &format!("calendar len {} next {:?}\n", self.calendar.len(), self.calendar.next_time());
+        out
+    }
+
+    // ---- accelerations ------------------------------------------------------------------
+
+    /// Gravity plus the pull: what ball `i` would accelerate at, free.
+    #[inline]
+    fn free_accel(&self, i: usize) -> DVec2 {
+        let c = &self.cold[i];
+        self.gravity + c.force * c.inverse_mass
+    }
+
+    /// The acceleration ball `i` moves with in its motion.
+    fn motion_accel(&self, i: usize) -> DVec2 {
+        let a = self.free_accel(i);
+        match self.cold[i].motion {
+            Motion::Free => a,
+            Motion::Sliding(k) => {
+                let n = WALL_NORMALS[k as usize];
+                a - a.dot(n) * n
+            }
+            Motion::Resting => DVec2::ZERO,
+        }
+    }
+
+    /// The force a ball at rest or sliding presses its supports with (its weight and pull, or
+    /// their normal part for a slider).
+    fn static_push(&self, i: usize) -> DVec2 {
+        let c = &self.cold[i];
+        let f = c.mass * self.free_accel(i);
+        match c.motion {
+            Motion::Free => DVec2::ZERO,
+            Motion::Sliding(k) => {
+                let n = WALL_NORMALS[k as usize];
+                f.dot(n) * n
+            }
+            Motion::Resting => f,
+        }
+    }
+
+    /// The rebound speed below which ball `i` pressed at `a` (m/s², the normal part towards its
+    /// support) stays on it: `√(2·a·h)`, h its rest height.
+    fn rest_speed(&self, i: usize, a: f64) -> f64 {
+        if a > 0.0 { (2.0 * a * self.params.rest_height * self.cold[i].diameter).sqrt() } else { 0.0 }
+    }
+
+    /// Where wall `k` is from ball `i`'s surface at `x`.
+    #[inline]
+    fn wall_gap(&self, k: usize, x: DVec2, r: f64) -> f64 {
+        match k {
+            0 => x.x - r,
+            1 => self.field.width - r - x.x,
+            2 => x.y - r,
+            _ => self.field.height - r - x.y,
+        }
+    }
+
+    // ---- the grid and the calendar ------------------------------------------------------
+
+    /// Brings every ball to now as a free ball (the weight of those at rest banked), rebuilds the
+    /// grid and predicts every ball again: after the balls or the effects changed.
+    pub fn rebuild(&mut self) {
+        for i in 0..self.len() {
+            self.end_static(i);
+            self.sync(i);
+            self.cold[i].motion = Motion::Free;
+            self.hot[i].a = self.free_accel(i);
+            self.count[i] = self.count[i].wrapping_add(1);
+        }
+        let largest = self.cold.iter().map(|c| c.diameter).fold(0.0, f64::max);
+        self.cells = Cells::new(self.field.width, self.field.height, largest, self.len());
+        self.cells.fill(self.hot.iter().map(|h| h.x));
+        self.calendar.clear();
+        for i in 0..self.len() {
+            self.predict(i);
+        }
+    }
+
+    /// Moves ball `i`'s reference instant to now (same course, new starting point).
+    #[inline]
+    fn sync(&mut self, i: usize) {
+        let (x, v) = self.at(i);
+        let h = &mut self.hot[i];
+        (h.x, h.v, h.t) = (x, v, self.now);
+    }
+
+    /// Banks the weight a ball at rest or sliding put on the walls up to now.
+    fn bank_static(&mut self, i: usize) {
+        if self.cold[i].motion != Motion::Free {
+            let push = self.static_push(i) * (self.now - self.cold[i].since);
+            transmit(&mut self.impulses, push);
+        }
+        self.cold[i].since = self.now;
+    }
+
+    /// Banks ball `i`'s weight and makes it free (its course is the caller's to set).
+    fn end_static(&mut self, i: usize) {
+        self.bank_static(i);
+        self.cold[i].motion = Motion::Free;
+    }
+
+    /// Puts ball `i`'s one event in the calendar: the earliest of its wall bounces, its cell
+    /// crossings and its collisions with the balls near it, from now on.
+    fn predict(&mut self, i: usize) {
+        // A new serial even for a ball at rest: whatever it had in the calendar is superseded.
+        self.serial[i] = self.serial[i].wrapping_add(1);
+        if self.cold[i].motion == Motion::Resting {
+            return;
+        }
+        self.counters.predictions += 1;
+        let (x, v) = self.at(i);
+        let (a, r) = (self.hot[i].a, self.hot[i].r);
+        let mut best = f64::INFINITY;
+        let mut partner = None;
+        let sliding_on = match self.cold[i].motion {
+            Motion::Sliding(k) => k as usize,
+            _ => 4,
+        };
+        for k in 0..4 {
+            if k == sliding_on {
+                continue;
+            }
+            let n = WALL_NORMALS[k];
+            if let Some(t) = plane_time(self.wall_gap(k, x, r), v.dot(n), a.dot(n))
+                && t < best
+            {
+                (best, partner) = (t, Some(Partner::Wall(k as u8)));
+            }
+        }
+        let bounds = self.cells.bounds(i);
+        let sides = [(x.x - bounds[0], v.x, a.x), (bounds[1] - x.x, -v.x, -a.x)];
+        let sides_y = [(x.y - bounds[2], v.y, a.y), (bounds[3] - x.y, -v.y, -a.y)];
+        for (s, &(gap, vn, an)) in sides.iter().chain(&sides_y).enumerate() {
+            if gap.is_finite()
+                && let Some(t) = plane_time(gap, vn, an)
+                && t < best
+            {
+                (best, partner) = (t, Some(Partner::Cell(s as u8)));
+            }
+        }
+        if self.effects.collisions.is_some() {
+            let (hot, now) = (&self.hot, self.now);
+            self.cells.for_each_near(i, |j| {
+                if j == i {
+                    return;
+                }
+                let h = &hot[j];
+                let (xj, vj) = flight(h.x, h.v, h.a, now - h.t);
+                if let Some(t) = pair_time(xj - x, vj - v, h.a - a, r + h.r, best)
+                    && t < best
+                {
+                    (best, partner) = (t, Some(Partner::Ball(j as u32, 0)));
+                }
+            });
+        }
+        if let Some(mut p) = partner {
+            if let Partner::Ball(j, _) = p {
+                p = Partner::Ball(j, self.count[j as usize]);
+            }
+            self.calendar.push(Event { time: self.now + best, owner: i as u32, serial: self.serial[i], partner: p });
+        }
+    }
+
+    // ---- running ------------------------------------------------------------------------
+
+    /// Processes every event up to `t` and sets the clock to `t` (never back).
+    pub fn advance_to(&mut self, t: f64) {
+        self.advance_while(t, || true);
+    }
+
+    /// Processes events up to `t` while `go_on()` (asked every 1,024 events) says so. Returns
+    /// whether `t` was reached; if not, the clock stands at the last event processed.
+    pub fn advance_while(&mut self, t: f64, mut go_on: impl FnMut() -> bool) -> bool {
+        let mut n = 0u32;
+        while let Some(next) = self.calendar.next_time() {
+            if next > t {
+                break;
+            }
+            n = n.wrapping_add(1);
+            if n % 1024 == 0 && !go_on() {
+                return false;
+            }
+            self.step();
+        }
+        if t > self.now {
+            self.now = t;
+        }
+        true
+    }
+
+    /// Processes events until `n` more collisions have happened (or nothing is left to happen).
+    pub fn run_collisions(&mut self, n: u64) {
+        let target = self.counters.collisions + n;
+        while self.counters.collisions < target && self.calendar.next_time().is_some() {
+            self.step();
+        }
+    }
+
+    /// Processes the next event of the calendar.
+    fn step(&mut self) {
+        let Some(ev) = self.calendar.pop() else { return };
+        let i = ev.owner as usize;
+        if ev.serial != self.serial[i] {
+            self.calendar.stats.stale_owner += 1;
+            return;
+        }
+        self.now = self.now.max(ev.time);
+        if std::env::var("EXACT_TRACE").ok().and_then(|v| v.parse::<f64>().ok()).is_some_and(|t0| self.now >= t0) {
+            let (x, v) = self.at(i);
+            eprintln!("DBG t={:.17} i={i} {:?} {:?} x={x:?} v={v:?} a={:?} partner_motion={:?}", self.now, ev.partner, self.cold[i].motion, self.hot[i].a,
+              if let Partner::Ball(j,_) = ev.partner { Some((self.cold[j as usize].motion, self.at(j as usize))) } else { None });
+        }
+        match ev.partner {
+            Partner::Ball(j, cj) => {
+                if self.count[j as usize] != cj {
+                    self.calendar.stats.stale_partner += 1;
+                    self.predict(i);
+                } else {
+                    self.collide_pair(i, j as usize);
+                }
+            }
+            Partner::Wall(k) => self.bounce(i, k as usize),
+            Partner::Cell(s) => {
+                self.counters.cell_crossings += 1;
+                self.cells.cross(i, s);
+                self.predict(i);
+            }
+        }
+        if std::env::var("EXACT_NAN").is_ok() {
+            for k in 0..self.len() {
+                if !(self.hot[k].x.is_finite() && self.hot[k].v.is_finite()) {
+                    panic!("NaN ball {k} after event {ev:?} at {}: {:?} {:?}", self.now, self.hot[k], self.cold[k]);
+                }
+            }
+        }
+        let (serial, balls) = (&self.serial, self.hot.len());
+        self.calendar.compact(balls, |e| e.serial == serial[e.owner as usize]);
+    }
+
+    /// A changed course: a new counter, a new acceleration, a new event.
+    fn restart_course(&mut self, i: usize) {
+        self.hot[i].a = self.motion_accel(i);
+        self.count[i] = self.count[i].wrapping_add(1);
+    }
+
+    /// Predicts the balls an event changed besides its own (`skip`): those it woke, and the
+    /// moving neighbours of those it put to rest (a ball at rest predicts nothing, so its
+    /// neighbours must find their collisions with it themselves).
+    fn predict_others(&mut self, skip: [usize; 2]) {
+        let woken = std::mem::take(&mut self.woken);
+        for &k in &woken {
+            if !skip.contains(&k) {
+                self.predict(k);
+            }
+        }
+        self.woken = woken;
+        self.woken.clear();
+        let rested = std::mem::take(&mut self.rested);
+        let mut near = Vec::new();
+        for &k in &rested {
+            self.cells.for_each_near(k, |m| near.push(m));
+        }
+        near.sort_unstable();
+        near.dedup();
+        for m in near {
+            if !skip.contains(&m) && self.cold[m].motion != Motion::Resting {
+                self.predict(m);
+            }
+        }
+        self.rested = rested;
+        self.rested.clear();
+    }
+
+    // ---- collisions ---------------------------------------------------------------------
+
+    /// The contact normals of ball `i` at `x` (pointing into it) from the walls and the balls at
+    /// rest it touches, within a millionth of its diameter, into `self.normals`.
+    fn contact_normals(&mut self, i: usize, x: DVec2) {
+        self.normals.clear();
+        let r = self.hot[i].r;
+        let tol = 1e-6 * self.cold[i].diameter;
+        for k in 0..4 {
+            if self.wall_gap(k, x, r) <= tol {
+                self.normals.push(WALL_NORMALS[k]);
+            }
+        }
+        let (hot, cold, normals) = (&self.hot, &self.cold, &mut self.normals);
+        self.cells.for_each_near(i, |j| {
+            if j != i && cold[j].motion == Motion::Resting {
+                let d = x - hot[j].x;
+                let dist = d.length();
+                if dist - (r + hot[j].r) <= tol && dist > 0.0 {
+                    normals.push(d / dist);
+                }
+            }
+        });
+    }
+
+    /// Whether ball `k`, moving, is slower than its rest speed now.
+    fn slow(&self, k: usize) -> bool {
+        let a = self.free_accel(k).length();
+        self.cold[k].motion != Motion::Resting && self.at(k).1.length() < self.rest_speed(k, a)
+    }
+
+    /// Puts ball `k` to rest if it is slow and held: by its supports (walls and balls at rest),
+    /// or together with slow balls it touches, each held by the others and the supports (two
+    /// balls leaning on each other in a gap would otherwise hop on each other for ever). The
+    /// group is the largest such set among the slow balls reached from `k` through contacts (at
+    /// most [`MAX_GROUP`]), found by dropping the balls not held until none is left to drop.
+    /// Returns whether `k` came to rest; the caller restarts `k`'s course.
+    fn settle(&mut self, k: usize) -> bool {
+        if !self.slow(k) {
+            return false;
+        }
+        if self.supported(k) {
+            self.come_to_rest(k);
+            return true;
+        }
+        let mut group = vec![k];
+        let mut g = 0;
+        while g < group.len() && group.len() < MAX_GROUP {
+            let m = group[g];
+            g += 1;
+            let mut near = Vec::new();
+            self.cells.for_each_near(m, |j| near.push(j));
+            for j in near {
+                if j != m && !group.contains(&j) && self.slow(j) && self.touching(m, j) {
+                    group.push(j);
+                }
+            }
+        }
+        if group.len() == 1 {
+            return false;
+        }
+        let mut held = vec![true; group.len()];
+        loop {
+            let mut dropped = false;
+            for a in 0..group.len() {
+                if !held[a] {
+                    continue;
+                }
+                let m = group[a];
+                let xm = self.at(m).0;
+                self.contact_normals(m, xm);
+                for b in 0..group.len() {
+                    if b != a && held[b] && self.touching(m, group[b]) {
+                        let d = xm - self.at(group[b]).0;
+                        self.normals.push(d / d.length());
+                    }
+                }
+                if !cone_contains(&self.normals, -self.free_accel(m), CONE_SLACK) {
+                    held[a] = false;
+                    dropped = true;
+                }
+            }
+            if !dropped {
+                break;
+            }
+        }
+        if !held[0] {
+            return false;
+        }
+        for (a, &m) in group.iter().enumerate() {
+            if held[a] {
+                self.come_to_rest(m);
+                if m != k {
+                    self.restart_course(m);
+                    // Supersedes the event it had (a ball at rest has none).
+                    self.predict(m);
+                }
+            }
+        }
+        self.counters.group_rests += 1;
+        true
+    }
+
+    /// Whether balls `a` and `b` touch now (within a millionth of a diameter).
+    fn touching(&self, a: usize, b: usize) -> bool {
+        let d = self.at(a).0.distance(self.at(b).0);
+        d > 0.0 && d - (self.hot[a].r + self.hot[b].r) <= 1e-6 * self.cold[a].diameter.min(self.cold[b].diameter)
+    }
+
+    /// Whether ball `i`'s supports (walls and balls at rest) can hold it against its acceleration.
+    fn supported(&mut self, i: usize) -> bool {
+        let (x, _) = self.at(i);
+        self.contact_normals(i, x);
+        cone_contains(&self.normals, -self.free_accel(i), CONE_SLACK)
+    }
+
+    /// Wakes ball `i` from rest (a free ball at rest where it is), and every ball at rest that it
+    /// held and that its other supports cannot hold alone; all of them into `self.woken`.
+    fn wake(&mut self, i: usize) {
+        let mut stack = vec![i];
+        while let Some(k) = stack.pop() {
+            if self.cold[k].motion != Motion::Resting {
+                continue;
+            }
+            self.end_static(k);
+            self.sync(k);
+            self.hot[k].v = DVec2::ZERO;
+            // A ball woken on a wall it is pressed against slides on it.
+            let (x, r, a) = (self.hot[k].x, self.hot[k].r, self.free_accel(k));
+            let tol = 1e-6 * self.cold[k].diameter;
+            if let Some(w) = (0..4).find(|&w| self.wall_gap(w, x, r) <= tol && a.dot(WALL_NORMALS[w]) < 0.0) {
+                self.cold[k].motion = Motion::Sliding(w as u8);
+            }
+            self.restart_course(k);
+            self.counters.wakes += 1;
+            self.woken.push(k);
+            let x = self.hot[k].x;
+            let mut near = Vec::new();
+            self.cells.for_each_near(k, |j| near.push(j));
+            for j in near {
+                if j != k && self.cold[j].motion == Motion::Resting {
+                    let d = self.hot[j].x - x;
+                    let reach = self.hot[j].r + self.hot[k].r;
+                    if d.length() - reach <= 1e-6 * self.cold[j].diameter && !self.supported(j) {
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+    }
+
+    /// How ball `k` answers an impulse along `push` (unit): free; sliding, if it presses it into
+    /// its wall (else it leaves the wall); fixed, if at rest and its supports hold against it
+    /// (else it wakes).
+    fn mobility(&mut self, k: usize, push: DVec2) -> Mobility {
+        let inverse_mass = self.cold[k].inverse_mass;
+        if self.cold[k].motion == Motion::Resting {
+            let x = self.hot[k].x;
+            self.contact_normals(k, x);
+            if cone_contains(&self.normals, -push, CONE_SLACK) {
+                return Mobility::Fixed;
+            }
+            // Woken: free, or sliding if it lies on a wall it is pressed against.
+            self.wake(k);
+        }
+        match self.cold[k].motion {
+            Motion::Free => Mobility::Free { inverse_mass },
+            Motion::Sliding(w) => {
+                let wall = WALL_NORMALS[w as usize];
+                if push.dot(wall) <= 0.0 {
+                    Mobility::Sliding { inverse_mass, wall }
+                } else {
+                    self.end_static(k);
+                    Mobility::Free { inverse_mass }
+                }
+            }
+            Motion::Resting => Mobility::Fixed,
+        }
+    }
+
+    /// Gauges the part of an impulse `p` on ball `k` that its constraint took.
+    fn gauge_constraint(&mut self, m: Mobility, p: DVec2) {
+        match m {
+            Mobility::Free { .. } => {}
+            Mobility::Sliding { wall, .. } => transmit(&mut self.impulses, p.dot(wall) * wall),
+            Mobility::Fixed => transmit(&mut self.impulses, p),
+        }
+    }
+
+    /// Ball `k` comes to rest now: its remaining momentum goes to its supports.
+    fn come_to_rest(&mut self, k: usize) {
+        self.sync(k);
+        self.bank_static(k);
+        let push = self.cold[k].mass * self.hot[k].v;
+        transmit(&mut self.impulses, push);
+        self.hot[k].v = DVec2::ZERO;
+        self.cold[k].motion = Motion::Resting;
+        self.counters.rests += 1;
+        self.rested.push(k);
+    }
+
+    /// The collision of balls i and j, which touch now.
+    fn collide_pair(&mut self, i: usize, j: usize) {
+        self.sync(i);
+        self.sync(j);
+        let (xi, xj) = (self.hot[i].x, self.hot[j].x);
+        let dr = xj - xi;
+        let dist = dr.length();
+        let sigma = self.hot[i].r + self.hot[j].r;
+        let coincident = !(dist > 1e-9 * sigma);
+        let n = if coincident { coincident_normal(self.cold[i].id, self.cold[j].id) } else { dr / dist };
+        // The relative normal velocity from the same dot product the prediction judged by, so
+        // that its sign is the one that made the event due.
+        let v_rel = |h: &[Hot]| {
+            let dv = h[j].v - h[i].v;
+            if coincident { dv.dot(n) } else { dr.dot(dv) / dist }
+        };
+        let vn = v_rel(&self.hot);
+        // How hard their accelerations press them together (> 0) in the motions that made this
+        // event due; judged again below in the motions the collision leaves them in.
+        let press_before = -(self.hot[j].a - self.hot[i].a).dot(n);
+        let mob_i = self.mobility(i, -n);
+        let mob_j = self.mobility(j, n);
+        let e = match self.effects.collisions {
+            Some(c) => c.restitution,
+            None => 1.0,
+        };
+        let e_eff = soft_restitution(e, -vn, self.params.collapse_speed);
+        if e_eff != e {
+            self.counters.soft_collisions += 1;
+        }
+        // A free ball meeting a ball at rest while it touches another support it also closes on:
+        // the two contacts act at once (see `wedge_impact`).
+        let wedge = match (mob_i, mob_j) {
+            (Mobility::Free { .. }, Mobility::Fixed) => Some((i, -n)),
+            (Mobility::Fixed, Mobility::Free { .. }) => Some((j, n)),
+            _ => None,
+        };
+        if let Some((k, nk)) = wedge
+            && self.wedge_impact(k, nk, e_eff)
+        {
+            self.counters.collisions += 1;
+            self.counters.wedges += 1;
+            self.settle(k);
+            self.restart_course(k);
+            self.predict(k);
+            self.predict_others([k, k]);
+            return;
+        }
+        // At least a few units of rounding of their speeds: an event made due by an approach of
+        // rounding size (vn ~ −1e-17) must leave a pair that separates in the same arithmetic,
+        // or it is due again at once, for ever.
+        let floor = 4.0 * f64::EPSILON * (self.hot[i].v.length() + self.hot[j].v.length());
+        let mut outgoing = if vn < 0.0 { (-e_eff * vn).max(floor) } else { 0.0 };
+        // Pressed together (their accelerations in their motions after this collision close the
+        // gap) and slow: the rest model.
+        let accel = |w: &World, k: usize, m: Mobility| match m {
+            Mobility::Fixed => DVec2::ZERO,
+            Mobility::Sliding { wall, .. } => {
+                let a = w.free_accel(k);
+                a - a.dot(wall) * wall
+            }
+            Mobility::Free { .. } => w.free_accel(k),
+        };
+        let press = press_before.max(-(accel(self, j, mob_j) - accel(self, i, mob_i)).dot(n));
+        let h = self.params.rest_height * self.cold[i].diameter.min(self.cold[j].diameter);
+        let v_rest = if press > 0.0 { (2.0 * press * h).sqrt() } else { 0.0 };
+        let mut rest = [false; 2];
+        if outgoing < v_rest {
+            // Plastic first: can the moving ones stay where they are?
+            if let Some(c) = collide(n, vn, 0.0, mob_i, mob_j) {
+                for (s, (k, dv, m)) in
+                    [(i, c.velocity_change_a, mob_i), (j, c.velocity_change_b, mob_j)].into_iter().enumerate()
+                {
+                    if m != Mobility::Fixed {
+                        let speed = (self.hot[k].v + dv).length();
+                        let a = self.free_accel(k).length();
+                        rest[s] = speed < self.rest_speed(k, a) && self.supported(k);
+                    }
+                }
+            }
+            // Plastic only if every ball that moves stays: a ball at rest under one that is not
+            // would only be pressed again at once.
+            let movable = [mob_i != Mobility::Fixed, mob_j != Mobility::Fixed];
+            if (rest[0] || !movable[0]) && (rest[1] || !movable[1]) {
+                outgoing = 0.0;
+            } else {
+                rest = [false; 2];
+                outgoing = v_rest;
+                self.counters.hops += 1;
+            }
+        }
+        if std::env::var("EXACT_TRACE").ok().and_then(|v| v.parse::<f64>().ok()).is_some_and(|t0| self.now >= t0) {
+            eprintln!("  PAIR vn={vn:e} press_before={press_before} press={press} v_rest={v_rest} outgoing={outgoing} rest={rest:?} mob_i={mob_i:?} mob_j={mob_j:?} e_eff={e_eff}");
+        }
+        if let Some(c) = collide(n, vn, outgoing, mob_i, mob_j) {
+            self.hot[i].v += c.velocity_change_a;
+            self.hot[j].v += c.velocity_change_b;
+            self.gauge_constraint(mob_i, -c.impulse * n);
+            self.gauge_constraint(mob_j, c.impulse * n);
+            // Rounding can leave the pair closing by a hair: top the impulse up so that it is
+            // predicted to separate (else it would collide again at once).
+            let after = v_rel(&self.hot);
+            if after < 0.0
+                && let Some(c2) = collide(n, after, outgoing.max(-after), mob_i, mob_j)
+            {
+                self.hot[i].v += c2.velocity_change_a;
+                self.hot[j].v += c2.velocity_change_b;
+                self.gauge_constraint(mob_i, -c2.impulse * n);
+                self.gauge_constraint(mob_j, c2.impulse * n);
+                self.counters.separation_fixes += 1;
+            }
+        }
+        self.counters.collisions += 1;
+        for (s, k, m) in [(0, i, mob_i), (1, j, mob_j)] {
+            if m == Mobility::Fixed {
+                continue;
+            }
+            if rest[s] {
+                self.come_to_rest(k);
+            } else {
+                self.settle(k);
+            }
+            self.restart_course(k);
+        }
+        self.predict(i);
+        self.predict(j);
+        self.predict_others([i, j]);
+    }
+
+    /// A free ball `k` that closes on a support along `nk` (the contact normal, pointing into
+    /// `k`) while it touches one other support (a wall or a ball at rest) that it closes on too,
+    /// now or once bounced off the first: both
+    /// contacts take their impulses at once, each reversing its normal velocity with its
+    /// restitution, `v′·n₁ = −e₁·v·n₁` and `v′·n₂ = −e₂·v·n₂` (in 2D the two fix `v′`).
+    ///
+    /// Resolved one after the other, such a pair of contacts passes the ball back and forth,
+    /// each collision turning a little of the velocity from one normal to the other: a ball that
+    /// drops into a gap a hair narrower than itself would take some 10⁵ collisions at one
+    /// instant. Returns false (and changes nothing) unless exactly one other support is closed on,
+    /// both impulses push and the ball leaves every support it touches.
+    fn wedge_impact(&mut self, k: usize, nk: DVec2, ek: f64) -> bool {
+        let v = self.hot[k].v;
+        if v.dot(nk) >= 0.0 {
+            return false;
+        }
+        let (x, r) = (self.hot[k].x, self.hot[k].r);
+        self.contact_normals(k, x);
+        let tol = 1e-6 * self.cold[k].diameter;
+        let walls: Vec<DVec2> = (0..4).filter(|&w| self.wall_gap(w, x, r) <= tol).map(|w| WALL_NORMALS[w]).collect();
+        // The other support it closes on now, or would close on once bounced off the first.
+        let v1 = v - (1.0 + ek) * v.dot(nk) * nk;
+        let mut other = None;
+        for &c in &self.normals {
+            if (c - nk).length_squared() < 1e-24 || (v.dot(c) >= 0.0 && v1.dot(c) >= 0.0) {
+                continue;
+            }
+            if other.is_some() {
+                return false;
+            }
+            other = Some(c);
+        }
+        let Some(nc) = other else { return false };
+        let det = nk.perp_dot(nc);
+        if det.abs() < 1e-12 {
+            return false;
+        }
+        let ec = if walls.contains(&nc) {
+            soft_restitution(self.field.restitution, -v.dot(nc), self.params.collapse_speed)
+        } else {
+            soft_restitution(self.effects.collisions.map_or(1.0, |c| c.restitution), -v.dot(nc), self.params.collapse_speed)
+        };
+        let (tk, tc) = (-ek * v.dot(nk), -ec * v.dot(nc));
+        let v_new = DVec2::new(tk * nc.y - tc * nk.y, nk.x * tc - nc.x * tk) / det;
+        let dv = v_new - v;
+        let m = self.cold[k].mass;
+        let (lk, lc) = (m * dv.perp_dot(nc) / det, m * nk.perp_dot(dv) / det);
+        if lk < 0.0 || lc < 0.0 || self.normals.iter().any(|n| v_new.dot(*n) < -1e-12 * v_new.length()) {
+            return false;
+        }
+        self.hot[k].v = v_new;
+        transmit(&mut self.impulses, -lk * nk);
+        transmit(&mut self.impulses, -lc * nc);
+        true
+    }
+
+    /// Ball i meets wall `k` now.
+    fn bounce(&mut self, i: usize, k: usize) {
+        self.sync(i);
+        let n = WALL_NORMALS[k];
+        let v = self.hot[i].v;
+        let vn = v.dot(n);
+        let e = soft_restitution(self.field.restitution, -vn, self.params.collapse_speed);
+        if e != self.field.restitution {
+            self.counters.soft_collisions += 1;
+        }
+        let outgoing = if vn < 0.0 { -e * vn } else { 0.0 };
+        let press = -self.hot[i].a.dot(n);
+        let m = self.cold[i].mass;
+        let landed = outgoing < self.rest_speed(i, press);
+        let new_vn = if landed { 0.0 } else { outgoing };
+        // The normal component set exactly (the walls are axis-aligned).
+        let mut v_new = v;
+        if k < 2 {
+            v_new.x = new_vn * n.x;
+        } else {
+            v_new.y = new_vn * n.y;
+        }
+        transmit(&mut self.impulses, m * (v - v_new));
+        self.hot[i].v = v_new;
+        self.counters.wall_bounces += 1;
+        if !self.settle(i) && landed {
+            if self.cold[i].motion == Motion::Free {
+                self.bank_static(i);
+                self.cold[i].motion = Motion::Sliding(k as u8);
+                self.counters.slides += 1;
+            } else if let Motion::Sliding(w) = self.cold[i].motion
+                && w as usize != k
+            {
+                // Into a corner while sliding: held by both walls.
+                self.come_to_rest(i);
+            }
+        }
+        self.restart_course(i);
+        self.predict(i);
+        self.predict_others([i, i]);
+    }
+
+    // ---- commands -----------------------------------------------------------------------
+
+    /// Sets the pull on the key ball (N). Only its course changes: it is cut now and predicted
+    /// again (woken first if it was at rest, off its wall if the pull lifts it).
+    pub fn set_pull(&mut self, force: DVec2) {
+        let Some(k) = self.key_index() else { return };
+        if self.cold[k].force == force {
+            return;
+        }
+        self.sync(k);
+        self.bank_static(k);
+        if self.cold[k].motion == Motion::Resting {
+            self.wake(k);
+        }
+        self.cold[k].force = force;
+        if let Motion::Sliding(w) = self.cold[k].motion
+            && self.free_accel(k).dot(WALL_NORMALS[w as usize]) >= 0.0
+        {
+            self.end_static(k);
+        }
+        self.restart_course(k);
+        self.predict(k);
+        self.predict_others([k, k]);
+    }
+
+    pub fn pull(&self) -> DVec2 {
+        self.key_index().map_or(DVec2::ZERO, |k| self.cold[k].force)
+    }
+
+    /// Sets ball `i`'s velocity now (it is free afterwards).
+    pub fn set_velocity(&mut self, i: usize, velocity: DVec2) {
+        self.sync(i);
+        if self.cold[i].motion == Motion::Resting {
+            self.wake(i);
+        }
+        self.end_static(i);
+        self.hot[i].v = velocity;
+        self.restart_course(i);
+        self.predict(i);
+        self.predict_others([i, i]);
+    }
+
+    /// Sets ball `i`'s mass (its course changes only if it is pulled).
+    pub fn set_mass(&mut self, i: usize, mass: f64) {
+        self.sync(i);
+        self.bank_static(i);
+        self.cold[i].mass = mass;
+        self.cold[i].inverse_mass = 1.0 / mass;
+        self.restart_course(i);
+        self.predict(i);
+    }
+
+    pub fn set_restitution(&mut self, walls: f64, balls: f64) {
+        self.field.restitution = walls;
+        if let Some(c) = &mut self.effects.collisions {
+            c.restitution = balls;
+        }
+    }
+
+    /// Switches the effects (drag and attraction ignored): every ball is predicted again.
+    pub fn set_effects(&mut self, effects: Effects, params: ExactParams) {
+        for i in 0..self.len() {
+            self.bank_static(i);
+        }
+        self.effects = Effects { drag: None, attraction: None, ..effects };
+        self.gravity = effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        self.params = params;
+        self.rebuild();
+    }
+
+    /// Adds a ball (with a fresh id unless `keep_id`), then predicts every ball again.
+    pub fn insert(&mut self, mut ball: Ball, keep_id: bool) -> Result<BallId, crate::engine::EngineError> {
+        use crate::engine::EngineError;
+        if self.len() >= self.max_balls {
+            return Err(EngineError::TooManyBalls { limit: self.max_balls });
+        }
+        if keep_id {
+            if self.index_of(ball.id).is_some() {
+                return Err(EngineError::IdInUse(ball.id));
+            }
+        } else {
+            ball.id = BallId(self.next_id);
+        }
+        self.next_id = self.next_id.max(ball.id.0 + 1);
+        let pull = self.pull();
+        let mut balls = Vec::new();
+        self.sample(&mut balls);
+        let at = balls.partition_point(|b| b.id < ball.id);
+        balls.insert(at, ball);
+        self.reload(&balls, pull);
+        Ok(ball.id)
+    }
+
+    /// Takes ball `i` off the field (the others predicted again).
+    pub fn remove(&mut self, i: usize) -> Ball {
+        let pull = self.pull();
+        let mut balls = Vec::new();
+        self.sample(&mut balls);
+        let ball = balls.remove(i);
+        self.reload(&balls, pull);
+        ball
+    }
+
+    /// Replaces the balls with `balls` (sorted by id) at the current instant.
+    fn reload(&mut self, balls: &[Ball], pull: DVec2) {
+        for i in 0..self.len() {
+            self.bank_static(i);
+        }
+        self.hot.clear();
+        self.cold.clear();
+        self.count.clear();
+        self.serial.clear();
+        for b in balls {
+            self.push_ball(*b);
+        }
+        if let Some(k) = self.key_index() {
+            self.cold[k].force = pull;
+        }
+        self.rebuild();
+    }
+}
