@@ -201,12 +201,17 @@ impl Engine for ExactEngine {
     }
 
     fn advance_to(&mut self, t: f64) {
-        self.run_to(t, None);
+        if !self.paused {
+            self.run_to(t, None);
+        }
     }
 
+    /// Steps of the scene's dt, as the lockstep engine's: the clock moves by `n·dt`.
     fn advance_steps(&mut self, n: u64) {
-        let t = self.world.now() + n as f64 * self.scene_dt;
-        self.run_to(t, None);
+        if !self.paused {
+            let t = self.world.now() + n as f64 * self.scene_dt;
+            self.run_to(t, None);
+        }
     }
 
     fn tick(&mut self, wall: Duration) {
