@@ -8,6 +8,7 @@
 
 pub mod analytic;
 mod fit;
+pub mod many_body;
 mod plot;
 mod problems;
 pub mod threaded;

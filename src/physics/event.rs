@@ -269,14 +269,19 @@ pub enum Mobility {
 }
 
 impl Mobility {
-    /// `nᵀ·W·n`: how much velocity along `n` a unit impulse along `n` gives.
+    /// `nᵀ·W·n`: how much velocity along `n` an impulse of `n` gives, with `n` of any length (see
+    /// [`collide`]).
     #[inline]
     pub fn along(&self, n: DVec2) -> f64 {
         match *self {
-            Mobility::Free { inverse_mass } => inverse_mass,
+            Mobility::Free { inverse_mass } => inverse_mass * n.length_squared(),
             Mobility::Sliding { inverse_mass, wall } => {
-                let c = n.dot(wall);
-                inverse_mass * (1.0 - c * c).max(0.0)
+                // Along the wall's normal to within 3e-5 rad the wall takes the whole impulse:
+                // what the subtraction leaves there is rounding, and dividing by it would give
+                // the ball the rounding's inverse as a velocity.
+                let (n2, c) = (n.length_squared(), n.dot(wall));
+                let free = n2 - c * c;
+                if free > 1e-9 * n2 { inverse_mass * free } else { 0.0 }
             }
             Mobility::Fixed => 0.0,
         }
@@ -296,23 +301,30 @@ impl Mobility {
 /// The result of a ball–ball collision.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Collision {
-    /// Magnitude of the normal impulse, N·s (≥ 0): a receives `−J·n`, b receives `+J·n`.
+    /// The impulse per unit of the direction [`collide`] was given, `J` (≥ 0): a receives
+    /// `−J·d`, b receives `+J·d` (N·s for a unit `d`; N·s/m for `d = Δr`).
     pub impulse: f64,
+    /// The velocity change of ball a, m/s.
     pub velocity_change_a: DVec2,
+    /// The velocity change of ball b, m/s.
     pub velocity_change_b: DVec2,
 }
 
-/// The collision of a and b along the unit normal `n` (from a towards b): the normal impulse
-/// that turns the relative normal velocity `v_rel = (v_b − v_a)·n` into `outgoing` (≥ 0, the
-/// separating speed wanted, `−e·v_rel` for restitution e), given how each ball answers an impulse.
+/// The collision of a and b along the direction `d` (from a towards b, any length): the impulse
+/// `J·d` that turns the relative velocity along it, `v_rel = (v_b − v_a)·d`, into `outgoing`
+/// (≥ 0, in the same units: `−e·v_rel` for restitution e), given how each ball answers an
+/// impulse.
 ///
-/// `J = (outgoing − v_rel) / (nᵀW_a n + nᵀW_b n)`. For two free balls this is DESIGN.md's
-/// `J = −(1 + e)·v_rel / (1/m_a + 1/m_b)`: equal and opposite impulses (momentum exact at any
-/// mass ratio), tangential velocities untouched, and for e = 1 the kinetic energy kept, as the
-/// normal relative speed is reversed exactly. With a constrained ball (sliding on a wall, held in
-/// a pile) the constraint takes the rest of the impulse; e = 1 still keeps the energy, since `W`
-/// is symmetric. Returns `None` when neither ball can move along `n`, or the pair already
-/// separates at least at `outgoing`.
+/// `J = (outgoing − v_rel) / (dᵀW_a d + dᵀW_b d)`. For two free balls and a unit `d` this is
+/// DESIGN.md's `J = −(1 + e)·v_rel / (1/m_a + 1/m_b)`: equal and opposite impulses (momentum
+/// exact at any mass ratio), tangential velocities untouched, and for e = 1 the kinetic energy
+/// kept, as the relative velocity along `d` is reversed exactly. `d`'s length drops out, so the
+/// caller may pass the centres' difference `Δr` itself (as the exact engine does): a unit normal
+/// `Δr/|Δr|` is of length 1 only to rounding, and its rounding biases the energy of an elastic
+/// gas (see `World::collide_pair`). With a constrained ball (sliding on a wall, held in a pile) the
+/// constraint takes the rest of the impulse; e = 1 still keeps the energy, since `W` is
+/// symmetric. Returns `None` when neither ball can move along `d`, or the pair already separates
+/// at least at `outgoing`.
 #[inline]
 pub fn collide(n: DVec2, v_rel: f64, outgoing: f64, a: Mobility, b: Mobility) -> Option<Collision> {
     let w = a.along(n) + b.along(n);

@@ -124,6 +124,27 @@ impl ExactEngine {
         }
     }
 
+    /// The engine for `balls` in `field` under `effects`, without a scene file (the tests, the
+    /// benches and the accuracy report build their problems so): room for as many balls as are
+    /// given, or 1, the scene's defaults for the rest.
+    pub fn from_parts(field: Field, effects: Effects, balls: &[Ball]) -> Result<ExactEngine, EngineError> {
+        check_effects(&effects)?;
+        let scene = Scene {
+            name: "exact".into(),
+            description: String::new(),
+            field,
+            integrator: Integrator::default(),
+            dt: 0.001,
+            seed: 0,
+            max_balls: balls.len().max(1),
+            ball_cycle: 0.001,
+            effects,
+            pull: 0.0,
+            balls: balls.to_vec(),
+        };
+        ExactEngine::new(&scene)
+    }
+
     /// The simulation itself (tests and the accuracy report read it).
     pub fn world(&self) -> &World {
         &self.world

@@ -61,7 +61,7 @@ use serde::Serialize;
 use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
-    Ball, BallId, BallKind, Effects, Field, Mobility, WallImpulses, coincident_normal, collide, cone_contains, flight,
+    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, coincident_normal, collide, cone_contains, flight,
     pair_time, plane_time, soft_restitution,
 };
 
@@ -885,13 +885,17 @@ impl World {
         let sigma = self.hot[i].r + self.hot[j].r;
         let coincident = !(dist > 1e-9 * sigma);
         let n = if coincident { coincident_normal(self.cold[i].id, self.cold[j].id) } else { dr / dist };
-        // The relative normal velocity from the same dot product the prediction judged by, so
-        // that its sign is the one that made the event due.
-        let v_rel = |h: &[Hot]| {
-            let dv = h[j].v - h[i].v;
-            if coincident { dv.dot(n) } else { dr.dot(dv) / dist }
-        };
-        let vn = v_rel(&self.hot);
+        // The impulse acts along `d = Δr` itself, not along the unit `n`: `Δv·d` is the dot
+        // product the prediction judged the pair by (so its sign is the one that made the event
+        // due, and the one the next prediction sees), and an impulse along `d` carries no
+        // rounding of a normalisation. Along `n = Δr/|Δr|`, whose length is 1 only to rounding,
+        // the rounding of `|n|²` does not average out: an elastic gas's energy drifts steadily
+        // (see docs/accuracy/exact.md); along `Δr` it only wanders by its roundings.
+        let (d, len) = if coincident { (n, 1.0) } else { (dr, dist) };
+        let v_rel = |h: &[Hot]| (h[j].v - h[i].v).dot(d);
+        let vd = v_rel(&self.hot);
+        // The relative normal speed, m/s (negative: closing).
+        let vn = vd / len;
         // How hard their accelerations press them together (> 0) in the motions that made this
         // event due; judged again below in the motions the collision leaves them in.
         let press_before = -(self.hot[j].a - self.hot[i].a).dot(n);
@@ -927,7 +931,9 @@ impl World {
         // rounding size (vn ~ −1e-17) must leave a pair that separates in the same arithmetic,
         // or it is due again at once, for ever.
         let floor = 4.0 * f64::EPSILON * (self.hot[i].v.length() + self.hot[j].v.length());
-        let mut outgoing = if vn < 0.0 { (-e_eff * vn).max(floor) } else { 0.0 };
+        // The outgoing speed, along `d` (elastic: exactly `−vd`) and in m/s for the rest model.
+        let mut out_d = if vd < 0.0 { (-e_eff * vd).max(floor * len) } else { 0.0 };
+        let mut outgoing = out_d / len;
         // Pressed together (their accelerations in their motions after this collision close the
         // gap) and slow: the rest model.
         let accel = |w: &World, k: usize, m: Mobility| match m {
@@ -944,7 +950,7 @@ impl World {
         let mut rest = [false; 2];
         if outgoing < v_rest {
             // Plastic first: can the moving ones stay where they are?
-            if let Some(c) = collide(n, vn, 0.0, mob_i, mob_j) {
+            if let Some(c) = collide(d, vd, 0.0, mob_i, mob_j) {
                 for (s, (k, dv, m)) in
                     [(i, c.velocity_change_a, mob_i), (j, c.velocity_change_b, mob_j)].into_iter().enumerate()
                 {
@@ -965,24 +971,22 @@ impl World {
                 outgoing = v_rest;
                 self.counters.hops += 1;
             }
+            out_d = outgoing * len;
         }
-        if let Some(c) = collide(n, vn, outgoing, mob_i, mob_j) {
-            self.hot[i].v += c.velocity_change_a;
-            self.hot[j].v += c.velocity_change_b;
-            self.gauge_constraint(mob_i, -c.impulse * n);
-            self.gauge_constraint(mob_j, c.impulse * n);
-            // Rounding can leave the pair closing by a hair: top the impulse up so that it is
-            // predicted to separate (else it would collide again at once).
+        if let Some(c) = collide(d, vd, out_d, mob_i, mob_j) {
+            self.apply_collision(i, j, d, c, mob_i, mob_j);
+        }
+        // Rounding can leave the pair closing by a hair (an outgoing speed of rounding size):
+        // top the impulse up by the floor until it separates, else it would be due again at
+        // once, for ever.
+        for _ in 0..4 {
             let after = v_rel(&self.hot);
-            if after < 0.0
-                && let Some(c2) = collide(n, after, outgoing.max(-after), mob_i, mob_j)
-            {
-                self.hot[i].v += c2.velocity_change_a;
-                self.hot[j].v += c2.velocity_change_b;
-                self.gauge_constraint(mob_i, -c2.impulse * n);
-                self.gauge_constraint(mob_j, c2.impulse * n);
-                self.counters.separation_fixes += 1;
+            if after >= 0.0 {
+                break;
             }
+            let Some(c) = collide(d, after, (outgoing.max(0.0) + floor) * len, mob_i, mob_j) else { break };
+            self.apply_collision(i, j, d, c, mob_i, mob_j);
+            self.counters.separation_fixes += 1;
         }
         self.counters.collisions += 1;
         for (s, k, m) in [(0, i, mob_i), (1, j, mob_j)] {
@@ -999,6 +1003,15 @@ impl World {
         self.predict(i);
         self.predict(j);
         self.predict_others([i, j]);
+    }
+
+    /// Applies collision `c` of balls i and j along `d` (the direction [`collide`] was given),
+    /// the constraints' shares to the gauges.
+    fn apply_collision(&mut self, i: usize, j: usize, d: DVec2, c: Collision, mob_i: Mobility, mob_j: Mobility) {
+        self.hot[i].v += c.velocity_change_a;
+        self.hot[j].v += c.velocity_change_b;
+        self.gauge_constraint(mob_i, -c.impulse * d);
+        self.gauge_constraint(mob_j, c.impulse * d);
     }
 
     /// A free ball `k` that closes on a support along `nk` (the contact normal, pointing into
