@@ -102,17 +102,37 @@ pub fn pair_gap_polynomial(dr: DVec2, dv: DVec2, da: DVec2, sigma: f64) -> [f64;
     ]
 }
 
+/// How far below zero the `Δr·Δv` of a touching pair may be for the pair still to count as not
+/// closing, in units of `ε·σ·s` (ε the machine epsilon, σ the contact distance, `s` the sum of the
+/// two balls' speeds): a few times what rounding leaves in that dot product, which is computed
+/// from velocities known to `ε·s`.
+pub const CLOSING_SLACK: f64 = 16.0;
+
+/// The slack of [`CLOSING_SLACK`] for a pair of contact distance `sigma` whose speeds sum to
+/// `speeds` (m/s; the engine uses the 1-norms `|v_x| + |v_y|`, which bound the lengths).
+#[inline]
+pub fn closing_slack(sigma: f64, speeds: f64) -> f64 {
+    CLOSING_SLACK * f64::EPSILON * sigma * speeds
+}
+
 /// When two balls next collide, within `horizon` seconds (infinite: ever), given their relative
-/// position `dr`, velocity `dv` and acceleration `da` (b − a) and `sigma`, the sum of their radii.
+/// position `dr`, velocity `dv` and acceleration `da` (b − a), `sigma`, the sum of their radii,
+/// and `speeds`, the sum of their speeds (see [`closing_slack`]).
 ///
 /// With `da = 0` (balls under the same uniform acceleration) the gap is a quadratic and the root
-/// is [`entry_time`]'s; otherwise it is [`first_entry`] of the quartic. The result is the same
-/// function of the arguments on every machine (no fused operations, a fixed order of
+/// is [`entry_time`]'s; otherwise it is [`first_entry`] of the quartic. A touching or overlapping
+/// pair that closes by less than [`closing_slack`] counts as not closing: that approach is a
+/// rounding of the impulse that just separated it (or of the impulses of a cluster solved at
+/// once), and judged by its sign alone the pair would be due again at once, for ever. The result
+/// is the same function of the arguments on every machine (no fused operations, a fixed order of
 /// operations), so a run is reproducible bit for bit.
 #[inline]
-pub fn pair_time(dr: DVec2, dv: DVec2, da: DVec2, sigma: f64, horizon: f64) -> Option<f64> {
+pub fn pair_time(dr: DVec2, dv: DVec2, da: DVec2, sigma: f64, horizon: f64, speeds: f64) -> Option<f64> {
     let c = dr.length_squared() - sigma * sigma;
-    let b = dr.dot(dv);
+    let mut b = dr.dot(dv);
+    if c <= 0.0 && b < 0.0 && b >= -closing_slack(sigma, speeds) {
+        b = 0.0;
+    }
     if da == DVec2::ZERO {
         // Apart and not closing, or a graze: the common case in a gas, decided without a root.
         if c > 0.0 && b >= 0.0 {
@@ -120,7 +140,9 @@ pub fn pair_time(dr: DVec2, dv: DVec2, da: DVec2, sigma: f64, horizon: f64) -> O
         }
         return entry_time(dv.length_squared(), 2.0 * b, c).filter(|&t| t <= horizon);
     }
-    first_entry(&pair_gap_polynomial(dr, dv, da, sigma), horizon)
+    let mut p = pair_gap_polynomial(dr, dv, da, sigma);
+    p[1] = 2.0 * b;
+    first_entry(&p, horizon)
 }
 
 /// `p(t)` for coefficients `p[k]·t^k` (Horner).

@@ -61,7 +61,7 @@ use serde::Serialize;
 use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
-    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, coincident_normal, collide, cone_contains, flight,
+    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, closing_slack, coincident_normal, collide, cone_contains, flight,
     pair_time, plane_time, soft_restitution,
 };
 
@@ -74,6 +74,20 @@ const CONE_SLACK: f64 = 1e-9;
 
 /// The most balls [`World::settle`] considers coming to rest together.
 const MAX_GROUP: usize = 32;
+
+/// The most collisions and bounces a ball has at one instant with the scene's restitution; the
+/// ones after are plastic (see [`World::note_instant`]).
+const MAX_AT_INSTANT: u32 = 16;
+
+/// The most collisions and bounces a ball has at one instant: at the next it comes to rest where
+/// it is (see [`World::note_instant`]).
+const WEDGED_AT_INSTANT: u32 = 64;
+
+/// The most Gauss–Seidel sweeps [`World::resolve_cluster`] makes over a cluster's contacts.
+const MAX_CLUSTER_SWEEPS: usize = 1_000;
+
+/// The most times [`World::resolve_cluster`] solves a cluster again after waking a support.
+const CLUSTER_PASSES: usize = 4;
 
 /// The most sweeps [`World::separate_overlaps`] makes over the balls.
 const MAX_SEPARATION_SWEEPS: usize = 64;
@@ -141,6 +155,9 @@ struct Cold {
     motion: Motion,
     /// Since when its weight is on the walls (resting or sliding).
     since: f64,
+    /// The instant of its latest collision or bounce, and how many it had at that instant.
+    instant: f64,
+    at_instant: u32,
 }
 
 /// What the engine counted.
@@ -169,6 +186,61 @@ pub struct ExactCounters {
     pub separation_fixes: u64,
     /// Overlapping pairs pushed apart when the balls were loaded (see `World::separate_overlaps`).
     pub overlaps_separated: u64,
+    /// Collisions and bounces made plastic as a ball's 17th or later at one instant (see
+    /// `World::note_instant`).
+    pub instant_plastic: u64,
+    /// Clusters of touching balls whose contacts were resolved at once (see
+    /// `World::resolve_cluster`), and the Gauss–Seidel sweeps beyond the first they took.
+    pub cluster_solves: u64,
+    pub cluster_sweeps: u64,
+    /// Balls that came to rest wedged: at their 65th collision or bounce at one instant.
+    pub wedged: u64,
+    /// Clusters jammed: a contact still closing after the sweep limit (a row that fits exactly
+    /// between balls at rest, whose balls' small vertical motions press its contacts through
+    /// normals a hair off the horizontal); such a cluster comes to rest where it is.
+    pub cluster_jams: u64,
+}
+
+/// A contact of a cluster solved at once ([`World::resolve_cluster`]).
+#[derive(Clone, Copy, Debug)]
+enum Contact {
+    /// Members a and b, along `Δr = x_b − x_a`, and their contact distance.
+    Pair(usize, usize, DVec2, f64),
+    /// Member a on ball s at rest, along the normal into a (not of unit length: `x_a − x_s`),
+    /// and their contact distance.
+    Support(usize, usize, DVec2, f64),
+    /// Member a on wall `w` (see [`Partner::Wall`]).
+    Wall(usize, u8),
+}
+
+impl Contact {
+    /// The member the impulse pushes (with `−d`), the one pushed with `+d` if a member, and `d`.
+    fn parts(&self) -> (usize, Option<usize>, DVec2) {
+        match *self {
+            Contact::Pair(a, b, d, _) => (a, Some(b), d),
+            Contact::Support(a, _, d, _) => (a, None, d),
+            Contact::Wall(a, w) => (a, None, WALL_NORMALS[w as usize]),
+        }
+    }
+
+    /// How fast the contact opens, along `d` (negative: closing).
+    fn velocity(&self, hot: &[Hot]) -> f64 {
+        match *self {
+            Contact::Pair(a, b, d, _) => (hot[b].v - hot[a].v).dot(d),
+            Contact::Support(a, _, d, _) => hot[a].v.dot(d),
+            Contact::Wall(a, w) => hot[a].v.dot(WALL_NORMALS[w as usize]),
+        }
+    }
+
+    /// Whether the prediction would find the contact closing now (see [`pair_time`]'s slack).
+    fn closing(&self, hot: &[Hot]) -> bool {
+        let v = self.velocity(hot);
+        match *self {
+            Contact::Pair(a, b, _, sigma) => v < -closing_slack(sigma, l1(hot[a].v) + l1(hot[b].v)),
+            Contact::Support(a, _, _, sigma) => v < -closing_slack(sigma, l1(hot[a].v)),
+            Contact::Wall(..) => v < 0.0,
+        }
+    }
 }
 
 /// The event-driven simulation (see the module comment).
@@ -196,8 +268,21 @@ pub struct World {
     woken: Vec<usize>,
     rested: Vec<usize>,
     normals: Vec<DVec2>,
-    /// Scratch: neighbours of a ball.
+    /// Scratch: neighbours of a ball; a cluster's members and contacts, and which balls are
+    /// members (`mark[k] == epoch`).
     near: Vec<usize>,
+    members: Vec<usize>,
+    contacts: Vec<Contact>,
+    lambda: Vec<f64>,
+    mark: Vec<u32>,
+    epoch: u32,
+}
+
+/// `|v_x| + |v_y|`: the speed bound [`closing_slack`] is taken with (no square root in the loop
+/// over neighbours).
+#[inline]
+fn l1(v: DVec2) -> f64 {
+    v.x.abs() + v.y.abs()
 }
 
 /// Adds to the gauges the impulse `push` that a ball gives its supports (and they pass on to the
@@ -241,6 +326,11 @@ impl World {
             rested: Vec::new(),
             normals: Vec::new(),
             near: Vec::new(),
+            members: Vec::new(),
+            contacts: Vec::new(),
+            lambda: Vec::new(),
+            mark: Vec::new(),
+            epoch: 0,
         };
         for b in &sorted {
             w.push_ball(*b);
@@ -260,9 +350,12 @@ impl World {
             force: DVec2::ZERO,
             motion: Motion::Free,
             since: self.now,
+            instant: f64::NEG_INFINITY,
+            at_instant: 0,
         });
         self.count.push(0);
         self.serial.push(0);
+        self.mark.push(0);
     }
 
     // ---- reading ------------------------------------------------------------------------
@@ -555,13 +648,14 @@ impl World {
         }
         if self.effects.collisions.is_some() {
             let (hot, now) = (&self.hot, self.now);
+            let speed = l1(v);
             self.cells.for_each_near(i, |j| {
                 if j == i {
                     return;
                 }
                 let h = &hot[j];
                 let (xj, vj) = flight(h.x, h.v, h.a, now - h.t);
-                if let Some(t) = pair_time(xj - x, vj - v, h.a - a, r + h.r, best)
+                if let Some(t) = pair_time(xj - x, vj - v, h.a - a, r + h.r, best, speed + l1(vj))
                     && t < best
                 {
                     (best, partner) = (t, Some(Partner::Ball(j as u32, 0)));
@@ -875,6 +969,224 @@ impl World {
         self.rested.push(k);
     }
 
+    /// Counts a collision or bounce of ball `k` now; returns how many it had at this instant.
+    ///
+    /// Balls that touch others which are held (a row on the floor between balls at rest, a ball
+    /// dropped into a gap a hair narrower than itself) can be in a sequence of collisions that
+    /// all fall on one instant: each passes the motion on to the next contact without the clock
+    /// moving. With e = 1 a pulse in a row held at both ends runs back and forth for ever; with
+    /// the collapse model's restitution, which rises to 1 for slow collisions, so does a slow
+    /// one; a ball in a narrow gap loses only the square of the gap's angle of its speed per
+    /// collision. Hard balls have no answer for such simultaneous contacts (the order of the
+    /// sequence picks one), and the engine would never leave that instant. So a ball has
+    /// [`MAX_AT_INSTANT`] collisions at one instant as the scene says; after that
+    /// - a collision of two moving balls resolves their whole cluster of touching balls at once
+    ///   ([`World::resolve_cluster`]: plastic, or at rest where jammed);
+    /// - a collision with a ball at rest, or with a wall, is plastic (e = 0, the rest model's
+    ///   hop still giving the minimum rebound to a ball pressed where it cannot rest);
+    /// - the [`WEDGED_AT_INSTANT`]th puts the ball to rest where it is.
+    ///
+    /// A ball in a touching Newton's cradle has two collisions at one instant, and a ball in a
+    /// gas one: the rule changes nothing that has an answer.
+    fn note_instant(&mut self, k: usize) -> u32 {
+        let c = &mut self.cold[k];
+        if c.instant == self.now {
+            c.at_instant = c.at_instant.saturating_add(1);
+        } else {
+            (c.instant, c.at_instant) = (self.now, 1);
+        }
+        c.at_instant
+    }
+
+    /// Resolves at once every contact of the cluster of moving balls that touch `seeds` (within
+    /// a millionth of a diameter, through each other): plastic impulses, `J ≥ 0` on each contact
+    /// (ball–ball, and ball–support against walls and balls at rest), that leave no contact
+    /// closing as the prediction judges it, found by projected Gauss–Seidel sweeps.
+    ///
+    /// Taken one after the other, as events, such contacts can pass their motion around the
+    /// cluster for ever at one instant (see [`World::note_instant`]); solved together they end
+    /// in one event. A ball at rest that the solve pushes where its supports cannot hold it is
+    /// woken and the cluster solved again with it (at most [`CLUSTER_PASSES`] times): a row
+    /// squeezed between two balls at rest would otherwise be solved against two immovable ends,
+    /// which leaves the row's small vertical motions nowhere to go but through contact normals a
+    /// hair off the horizontal (a system the sweeps hardly converge on). The slow balls are then
+    /// put to rest where their supports hold them (`settle`).
+    fn resolve_cluster(&mut self, seeds: [usize; 2]) {
+        self.counters.cluster_solves += 1;
+        let mut members = std::mem::take(&mut self.members);
+        let mut contacts = std::mem::take(&mut self.contacts);
+        let mut lambda = std::mem::take(&mut self.lambda);
+        let mut start = Vec::new();
+        let mut jammed = false;
+        for pass in 0..CLUSTER_PASSES {
+            self.gather_cluster(seeds, &mut members, &mut contacts);
+            start.clear();
+            start.extend(members.iter().map(|&m| self.hot[m].v));
+            let (walls, settled) = self.solve_cluster(&contacts, &mut lambda);
+            jammed = !settled;
+            // Supports pushed where they cannot hold: woken, and the cluster solved again from
+            // its velocities before.
+            let mut woke = false;
+            if pass + 1 < CLUSTER_PASSES {
+                for (c, contact) in contacts.iter().enumerate() {
+                    if let Contact::Support(_, k, d, _) = *contact
+                        && lambda[c] > 0.0
+                        && self.cold[k].motion == Motion::Resting
+                        && !self.holds(k, -d)
+                    {
+                        self.wake(k);
+                        woke = true;
+                    }
+                }
+            }
+            if woke {
+                for (&m, &v) in members.iter().zip(&start) {
+                    self.hot[m].v = v;
+                }
+                continue;
+            }
+            // The walls and the balls at rest take the supports' impulses (the balls at rest
+            // pass theirs on to the walls).
+            transmit(&mut self.impulses, walls);
+            for (c, contact) in contacts.iter().enumerate() {
+                if let (_, None, d) = contact.parts() {
+                    transmit(&mut self.impulses, -lambda[c] * d);
+                }
+            }
+            break;
+        }
+        self.counters.collisions += 1;
+        if jammed {
+            // Held by its own contacts: the whole cluster comes to rest where it is.
+            self.counters.cluster_jams += 1;
+        }
+        for &m in &members {
+            if jammed {
+                self.come_to_rest(m);
+            } else {
+                self.settle(m);
+            }
+            self.restart_course(m);
+        }
+        for &m in &members {
+            self.predict(m);
+        }
+        self.predict_others([seeds[0], seeds[1]]);
+        self.members = members;
+        self.contacts = contacts;
+        self.lambda = lambda;
+    }
+
+    /// The moving balls that touch `seeds`, through each other, into `members` (each brought to
+    /// now and made free: a wall it slid on is one of its contacts), and their contacts.
+    fn gather_cluster(&mut self, seeds: [usize; 2], members: &mut Vec<usize>, contacts: &mut Vec<Contact>) {
+        members.clear();
+        self.epoch = self.epoch.wrapping_add(1);
+        for k in seeds {
+            if self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting {
+                self.mark[k] = self.epoch;
+                members.push(k);
+            }
+        }
+        let mut near = std::mem::take(&mut self.near);
+        let mut g = 0;
+        while g < members.len() {
+            let m = members[g];
+            g += 1;
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in &near {
+                if k != m && self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting && self.touching(m, k) {
+                    self.mark[k] = self.epoch;
+                    members.push(k);
+                }
+            }
+        }
+        for &m in members.iter() {
+            self.end_static(m);
+            self.sync(m);
+        }
+        contacts.clear();
+        for &m in members.iter() {
+            let (x, r) = (self.hot[m].x, self.hot[m].r);
+            let tol = 1e-6 * self.cold[m].diameter;
+            for w in 0..4 {
+                if self.wall_gap(w, x, r) <= tol {
+                    contacts.push(Contact::Wall(m, w as u8));
+                }
+            }
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in &near {
+                if k == m || !self.touching(m, k) {
+                    continue;
+                }
+                let sigma = r + self.hot[k].r;
+                if self.mark[k] == self.epoch {
+                    if k > m {
+                        contacts.push(Contact::Pair(m, k, self.hot[k].x - x, sigma));
+                    }
+                } else if self.cold[k].motion == Motion::Resting {
+                    contacts.push(Contact::Support(m, k, x - self.hot[k].x, sigma));
+                }
+            }
+        }
+        self.near = near;
+    }
+
+    /// Projected Gauss–Seidel over `contacts` (see [`World::resolve_cluster`]): each contact's
+    /// impulse `λ ≥ 0` into `lambda`, the members' velocities changed. A wall's normal velocity,
+    /// one component, is set exactly rather than to a rounding of 0; what that takes is returned
+    /// as the walls' impulse, for the caller to gauge, with whether every contact ended opening.
+    fn solve_cluster(&mut self, contacts: &[Contact], lambda: &mut Vec<f64>) -> (DVec2, bool) {
+        lambda.clear();
+        lambda.resize(contacts.len(), 0.0);
+        let mut walls = DVec2::ZERO;
+        for _ in 0..MAX_CLUSTER_SWEEPS {
+            for (c, contact) in contacts.iter().enumerate() {
+                let (a, b, d) = contact.parts();
+                let ia = self.cold[a].inverse_mass;
+                let w = (ia + b.map_or(0.0, |b| self.cold[b].inverse_mass)) * d.length_squared();
+                let new = (lambda[c] - contact.velocity(&self.hot) / w).max(0.0);
+                let dl = new - lambda[c];
+                lambda[c] = new;
+                match b {
+                    Some(b) => {
+                        self.hot[a].v -= ia * dl * d;
+                        self.hot[b].v += self.cold[b].inverse_mass * dl * d;
+                    }
+                    None => self.hot[a].v += ia * dl * d,
+                }
+            }
+            for contact in contacts {
+                if let Contact::Wall(a, w) = *contact {
+                    let v = &mut self.hot[a].v;
+                    let before = *v;
+                    match w {
+                        0 => v.x = v.x.max(0.0),
+                        1 => v.x = v.x.min(0.0),
+                        2 => v.y = v.y.max(0.0),
+                        _ => v.y = v.y.min(0.0),
+                    }
+                    walls += self.cold[a].mass * (before - *v);
+                }
+            }
+            if contacts.iter().all(|c| !c.closing(&self.hot)) {
+                return (walls, true);
+            }
+            self.counters.cluster_sweeps += 1;
+        }
+        (walls, false)
+    }
+
+    /// Whether ball `k`'s supports (walls and balls at rest) can hold an impulse on it along
+    /// `push`.
+    fn holds(&mut self, k: usize, push: DVec2) -> bool {
+        let x = self.hot[k].x;
+        self.contact_normals(k, x);
+        cone_contains(&self.normals, -push, CONE_SLACK)
+    }
+
     /// The collision of balls i and j, which touch now.
     fn collide_pair(&mut self, i: usize, j: usize) {
         self.sync(i);
@@ -899,14 +1211,39 @@ impl World {
         // How hard their accelerations press them together (> 0) in the motions that made this
         // event due; judged again below in the motions the collision leaves them in.
         let press_before = -(self.hot[j].a - self.hot[i].a).dot(n);
+        let hits = self.note_instant(i).max(self.note_instant(j));
+        let moving = |w: &World, k: usize| w.cold[k].motion != Motion::Resting;
+        if hits > WEDGED_AT_INSTANT {
+            // Wedged: it comes to rest where it is (see `note_instant`).
+            for k in [i, j] {
+                if moving(self, k) {
+                    self.counters.wedged += 1;
+                    self.come_to_rest(k);
+                    self.restart_course(k);
+                    self.predict(k);
+                }
+            }
+            self.counters.collisions += 1;
+            self.predict_others([i, j]);
+            return;
+        }
+        if hits > MAX_AT_INSTANT && moving(self, i) && moving(self, j) {
+            self.resolve_cluster([i, j]);
+            return;
+        }
         let mob_i = self.mobility(i, -n);
         let mob_j = self.mobility(j, n);
         let e = match self.effects.collisions {
             Some(c) => c.restitution,
             None => 1.0,
         };
-        let e_eff = soft_restitution(e, -vn, self.params.collapse_speed);
-        if e_eff != e {
+        let e_eff = if hits > MAX_AT_INSTANT {
+            self.counters.instant_plastic += 1;
+            0.0
+        } else {
+            soft_restitution(e, -vn, self.params.collapse_speed)
+        };
+        if e_eff != e && hits <= MAX_AT_INSTANT {
             self.counters.soft_collisions += 1;
         }
         // A free ball meeting a ball at rest while it touches another support it also closes on:
@@ -981,7 +1318,7 @@ impl World {
         // once, for ever.
         for _ in 0..4 {
             let after = v_rel(&self.hot);
-            if after >= 0.0 {
+            if after >= -closing_slack(sigma, l1(self.hot[i].v) + l1(self.hot[j].v)) {
                 break;
             }
             let Some(c) = collide(d, after, (outgoing.max(0.0) + floor) * len, mob_i, mob_j) else { break };
@@ -1076,10 +1413,26 @@ impl World {
         let n = WALL_NORMALS[k];
         let v = self.hot[i].v;
         let vn = v.dot(n);
-        let e = soft_restitution(self.field.restitution, -vn, self.params.collapse_speed);
-        if e != self.field.restitution {
-            self.counters.soft_collisions += 1;
+        let hits = self.note_instant(i);
+        if hits > WEDGED_AT_INSTANT {
+            self.counters.wedged += 1;
+            self.counters.wall_bounces += 1;
+            self.come_to_rest(i);
+            self.restart_course(i);
+            self.predict(i);
+            self.predict_others([i, i]);
+            return;
         }
+        let e = if hits > MAX_AT_INSTANT {
+            self.counters.instant_plastic += 1;
+            0.0
+        } else {
+            let e = soft_restitution(self.field.restitution, -vn, self.params.collapse_speed);
+            if e != self.field.restitution {
+                self.counters.soft_collisions += 1;
+            }
+            e
+        };
         let outgoing = if vn < 0.0 { -e * vn } else { 0.0 };
         let press = -self.hot[i].a.dot(n);
         let m = self.cold[i].mass;
@@ -1224,6 +1577,7 @@ impl World {
         self.cold.clear();
         self.count.clear();
         self.serial.clear();
+        self.mark.clear();
         for b in balls {
             self.push_ball(*b);
         }
