@@ -83,6 +83,11 @@ const MAX_AT_INSTANT: u32 = 16;
 /// it is (see [`World::note_instant`]).
 const WEDGED_AT_INSTANT: u32 = 64;
 
+/// The backstop of [`World::note_instant`]: the most collisions and bounces of any speed a ball
+/// has at one instant before it rests where it is (the only rule there where every restitution
+/// is 1; a ball of the crowd scene, packed tighter than the field holds, has 938 at its start).
+const ELASTIC_AT_INSTANT: u32 = 1 << 16;
+
 /// The most Gauss–Seidel sweeps [`World::resolve_cluster`] makes over a cluster's contacts.
 const MAX_CLUSTER_SWEEPS: usize = 1_000;
 
@@ -193,6 +198,8 @@ pub struct ExactCounters {
     /// `World::resolve_cluster`), and the Gauss–Seidel sweeps beyond the first they took.
     pub cluster_solves: u64,
     pub cluster_sweeps: u64,
+    /// The most collisions and bounces one ball had at one instant.
+    pub most_at_instant: u32,
     /// Balls that came to rest wedged: at their 65th collision or bounce at one instant.
     pub wedged: u64,
     /// Clusters jammed: a contact still closing after the sweep limit (a row that fits exactly
@@ -259,6 +266,9 @@ pub struct World {
     effects: Effects,
     gravity: DVec2,
     params: ExactParams,
+    /// Collisions a ball has at one instant before the rules of [`World::note_instant`] act:
+    /// before its cluster is resolved at once, and before it rests where it is.
+    limits: (u32, u32),
     max_balls: usize,
     next_id: u32,
     /// Impulses the walls took, banked (the loads of balls at rest are added when read).
@@ -318,6 +328,7 @@ impl World {
             effects: Effects { drag: None, attraction: None, ..effects },
             gravity: effects.gravity.map_or(DVec2::ZERO, |g| g.g),
             params,
+            limits: (0, 0),
             max_balls,
             next_id: sorted.iter().map(|b| b.id.0 + 1).max().unwrap_or(0),
             impulses: WallImpulses::default(),
@@ -506,9 +517,18 @@ impl World {
 
     // ---- the grid and the calendar ------------------------------------------------------
 
+    /// The limits of [`World::note_instant`] for the restitutions now: the inelastic rules where
+    /// any restitution is below 1; where all are 1, only the backstop (an elastic sequence at one
+    /// instant ends by itself unless balls at rest hold it at both ends).
+    fn set_limits(&mut self) {
+        let e = self.effects.collisions.map_or(1.0, |c| c.restitution).min(self.field.restitution);
+        self.limits = if e < 1.0 { (MAX_AT_INSTANT, WEDGED_AT_INSTANT) } else { (u32::MAX, u32::MAX) };
+    }
+
     /// Brings every ball to now as a free ball (the weight of those at rest banked), rebuilds the
     /// grid and predicts every ball again: after the balls or the effects changed.
     pub fn rebuild(&mut self) {
+        self.set_limits();
         for i in 0..self.len() {
             self.end_static(i);
             self.sync(i);
@@ -972,22 +992,25 @@ impl World {
     /// Counts a collision or bounce of ball `k` now; returns how many it had at this instant.
     ///
     /// Balls that touch others which are held (a row on the floor between balls at rest, a ball
-    /// dropped into a gap a hair narrower than itself) can be in a sequence of collisions that
-    /// all fall on one instant: each passes the motion on to the next contact without the clock
-    /// moving. With e = 1 a pulse in a row held at both ends runs back and forth for ever; with
-    /// the collapse model's restitution, which rises to 1 for slow collisions, so does a slow
-    /// one; a ball in a narrow gap loses only the square of the gap's angle of its speed per
-    /// collision. Hard balls have no answer for such simultaneous contacts (the order of the
-    /// sequence picks one), and the engine would never leave that instant. So a ball has
-    /// [`MAX_AT_INSTANT`] collisions at one instant as the scene says; after that
+    /// dropped into a gap a hair narrower than itself) can be in a sequence of slow collisions
+    /// that all fall on one instant: each passes the motion on to the next contact without the
+    /// clock moving. With the collapse model's restitution, which rises to 1 for slow
+    /// collisions, a pulse in a row held at both ends runs back and forth for ever; a ball in a
+    /// narrow gap loses only the square of the gap's angle of its speed per collision. Hard
+    /// balls have no answer for such simultaneous contacts (the order of the sequence picks
+    /// one), and the engine would never leave that instant. So, in a scene with a restitution
+    /// below 1, a ball has [`MAX_AT_INSTANT`] slow collisions (slower than the collapse speed) at
+    /// one instant as the scene says; after that
     /// - a collision of two moving balls resolves their whole cluster of touching balls at once
     ///   ([`World::resolve_cluster`]: plastic, or at rest where jammed);
     /// - a collision with a ball at rest, or with a wall, is plastic (e = 0, the rest model's
     ///   hop still giving the minimum rebound to a ball pressed where it cannot rest);
     /// - the [`WEDGED_AT_INSTANT`]th puts the ball to rest where it is.
     ///
-    /// A ball in a touching Newton's cradle has two collisions at one instant, and a ball in a
-    /// gas one: the rule changes nothing that has an answer.
+    /// In any scene, a ball's [`ELASTIC_AT_INSTANT`]th collision at one instant of any speed puts
+    /// it to rest too: a backstop that no run seen has reached. Fast collisions at one instant
+    /// (a crowd started overlapping) run as the scene says, and a ball in a touching Newton's
+    /// cradle has two: the rules change nothing that has an answer.
     fn note_instant(&mut self, k: usize) -> u32 {
         let c = &mut self.cold[k];
         if c.instant == self.now {
@@ -995,6 +1018,7 @@ impl World {
         } else {
             (c.instant, c.at_instant) = (self.now, 1);
         }
+        self.counters.most_at_instant = self.counters.most_at_instant.max(c.at_instant);
         c.at_instant
     }
 
@@ -1212,8 +1236,11 @@ impl World {
         // event due; judged again below in the motions the collision leaves them in.
         let press_before = -(self.hot[j].a - self.hot[i].a).dot(n);
         let hits = self.note_instant(i).max(self.note_instant(j));
+        // Only slow collisions count towards the rules (the collapse regime); any towards the
+        // backstop.
+        let slow_hits = if vn > -self.params.collapse_speed { hits } else { 0 };
         let moving = |w: &World, k: usize| w.cold[k].motion != Motion::Resting;
-        if hits > WEDGED_AT_INSTANT {
+        if hits > ELASTIC_AT_INSTANT || slow_hits > self.limits.1 {
             // Wedged: it comes to rest where it is (see `note_instant`).
             for k in [i, j] {
                 if moving(self, k) {
@@ -1227,7 +1254,7 @@ impl World {
             self.predict_others([i, j]);
             return;
         }
-        if hits > MAX_AT_INSTANT && moving(self, i) && moving(self, j) {
+        if slow_hits > self.limits.0 && moving(self, i) && moving(self, j) {
             self.resolve_cluster([i, j]);
             return;
         }
@@ -1237,13 +1264,13 @@ impl World {
             Some(c) => c.restitution,
             None => 1.0,
         };
-        let e_eff = if hits > MAX_AT_INSTANT {
+        let e_eff = if slow_hits > self.limits.0 {
             self.counters.instant_plastic += 1;
             0.0
         } else {
             soft_restitution(e, -vn, self.params.collapse_speed)
         };
-        if e_eff != e && hits <= MAX_AT_INSTANT {
+        if e_eff != e && slow_hits <= self.limits.0 {
             self.counters.soft_collisions += 1;
         }
         // A free ball meeting a ball at rest while it touches another support it also closes on:
@@ -1414,7 +1441,8 @@ impl World {
         let v = self.hot[i].v;
         let vn = v.dot(n);
         let hits = self.note_instant(i);
-        if hits > WEDGED_AT_INSTANT {
+        let slow_hits = if vn > -self.params.collapse_speed { hits } else { 0 };
+        if hits > ELASTIC_AT_INSTANT || slow_hits > self.limits.1 {
             self.counters.wedged += 1;
             self.counters.wall_bounces += 1;
             self.come_to_rest(i);
@@ -1423,7 +1451,7 @@ impl World {
             self.predict_others([i, i]);
             return;
         }
-        let e = if hits > MAX_AT_INSTANT {
+        let e = if slow_hits > self.limits.0 {
             self.counters.instant_plastic += 1;
             0.0
         } else {
@@ -1522,6 +1550,7 @@ impl World {
         if let Some(c) = &mut self.effects.collisions {
             c.restitution = balls;
         }
+        self.set_limits();
     }
 
     /// Switches the effects (drag and attraction ignored): every ball is predicted again.
