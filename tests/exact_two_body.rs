@@ -99,7 +99,11 @@ fn a_collision_is_the_closed_form_to_rounding_at_any_mass_ratio_and_angle() {
                         .collect();
                     let de = (ke(&got) - ke(&fallen)).abs() / ke(&fallen);
                     let dp = (p(&got) - p(&fallen)).length() / (ma * 3.0 + mb * 3.0);
-                    assert_eq!(e.stats().counters.collisions, 1, "one collision (g {g}, ratio {ratio}, impact {impact})");
+                    assert_eq!(
+                        e.stats().counters.collisions,
+                        1,
+                        "one collision (g {g}, ratio {ratio}, impact {impact})"
+                    );
                     assert!(
                         err < 5e-14 && dp < 1e-14,
                         "g {g}, ratio {ratio}, impact {impact}, angle {angle}: state error {err:e}, momentum {dp:e}"

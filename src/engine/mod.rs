@@ -112,7 +112,12 @@ pub enum EngineError {
         "the {engine} engine cannot run {effects}: it runs collisions, uniform gravity and the key ball's pull \
          only; turn {effects} off or use the lockstep or threaded engine"
     )]
-    Unsupported { engine: EngineKind, effects: String },
+    Unsupported {
+        /// The engine that refused.
+        engine: EngineKind,
+        /// The effects it cannot run, by name ("drag", "attraction", "drag and attraction").
+        effects: String,
+    },
 }
 
 /// What an engine measured about its own run, for the report: the part of the figures that only

@@ -282,10 +282,18 @@ pub fn first_entry(p: &[f64; 5], horizon: f64) -> Option<f64> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mobility {
     /// A free ball: `W = I/m`.
-    Free { inverse_mass: f64 },
+    Free {
+        /// 1/m, 1/kg.
+        inverse_mass: f64,
+    },
     /// A ball sliding on a wall whose inward normal is `wall`: the wall takes the normal part of
     /// any impulse that presses the ball into it, `W = (I − n·nᵀ)/m`.
-    Sliding { inverse_mass: f64, wall: DVec2 },
+    Sliding {
+        /// 1/m, 1/kg.
+        inverse_mass: f64,
+        /// The wall's inward unit normal.
+        wall: DVec2,
+    },
     /// A ball held by the floor through its supports (at rest in a pile): `W = 0`.
     Fixed,
 }
@@ -350,7 +358,7 @@ pub struct Collision {
 #[inline]
 pub fn collide(n: DVec2, v_rel: f64, outgoing: f64, a: Mobility, b: Mobility) -> Option<Collision> {
     let w = a.along(n) + b.along(n);
-    if !(w > 0.0) || v_rel >= outgoing {
+    if w.is_nan() || w <= 0.0 || v_rel >= outgoing {
         return None;
     }
     let impulse = (outgoing - v_rel) / w;
@@ -372,7 +380,7 @@ pub fn collide(n: DVec2, v_rel: f64, outgoing: f64, a: Mobility, b: Mobility) ->
 /// `e = 1` is returned unchanged.
 #[inline]
 pub fn soft_restitution(e: f64, speed: f64, v0: f64) -> f64 {
-    if e >= 1.0 || !(speed < v0) {
+    if e >= 1.0 || speed.is_nan() || speed >= v0 {
         return e;
     }
     // A pair that does not close (speed ≤ 0) has nothing to lose.

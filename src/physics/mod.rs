@@ -35,8 +35,8 @@ pub use effects::{
     gravity_force, gravity_potential, quadratic_terminal_speed,
 };
 pub use event::{
-    CLOSING_SLACK, Collision, Mobility, closing_slack, collide, cone_contains, entry_time, first_entry, flight, pair_gap_polynomial, pair_time,
-    plane_time, soft_restitution,
+    CLOSING_SLACK, Collision, Mobility, closing_slack, collide, cone_contains, entry_time, first_entry, flight,
+    pair_gap_polynomial, pair_time, plane_time, soft_restitution,
 };
 pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};

@@ -38,9 +38,11 @@ pub enum Partner {
 pub struct Event {
     /// Absolute simulated time, s.
     pub time: f64,
+    /// The ball whose event it is.
     pub owner: u32,
     /// The owner's prediction serial.
     pub serial: u32,
+    /// What the owner meets.
     pub partner: Partner,
 }
 
@@ -83,6 +85,7 @@ impl Ord for Entry {
 /// What the calendar counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CalendarStats {
+    /// Events pushed.
     pub pushed: u64,
     /// Events dropped because their owner had changed.
     pub stale_owner: u64,
@@ -94,25 +97,31 @@ pub struct CalendarStats {
     pub compactions: u64,
 }
 
+/// The heap of events (see the module comment).
 #[derive(Clone, Debug, Default)]
 pub struct Calendar {
     heap: BinaryHeap<Entry>,
+    /// What it counted.
     pub stats: CalendarStats,
 }
 
 impl Calendar {
+    /// An empty calendar.
     pub fn new() -> Calendar {
         Calendar::default()
     }
 
+    /// Drops every event (the counts stay).
     pub fn clear(&mut self) {
         self.heap.clear();
     }
 
+    /// Events held, live or dropped-to-be.
     pub fn len(&self) -> usize {
         self.heap.len()
     }
 
+    /// Adds an event.
     pub fn push(&mut self, event: Event) {
         self.heap.push(Entry(event));
         self.stats.pushed += 1;
@@ -124,6 +133,7 @@ impl Calendar {
         self.heap.peek().map(|e| e.0.time)
     }
 
+    /// Takes the earliest event, live or not (the caller checks it).
     pub fn pop(&mut self) -> Option<Event> {
         self.heap.pop().map(|e| e.0)
     }

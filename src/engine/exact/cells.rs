@@ -11,7 +11,9 @@ use glam::DVec2;
 /// The grid and which balls are in each cell.
 #[derive(Clone, Debug, Default)]
 pub struct Cells {
+    /// Cells across.
     pub nx: usize,
+    /// Cells up.
     pub ny: usize,
     /// Cell width and height, m.
     pub size: DVec2,
@@ -66,6 +68,7 @@ impl Cells {
         }
     }
 
+    /// Ball `i`'s cell, `(column, row)`.
     pub fn cell_of(&self, i: usize) -> (usize, usize) {
         let c = self.cell_of[i] as usize;
         (c % self.nx, c / self.nx)

@@ -42,21 +42,27 @@ const TICK_BUDGET: Duration = Duration::from_millis(12);
 pub struct ExactStats {
     /// Events processed: collisions, wall bounces and cell crossings.
     pub events: u64,
+    /// What the engine counted, event by event.
     #[serde(flatten)]
     pub counters: ExactCounters,
-    /// Events per second and collisions per second of wall-clock time spent processing.
+    /// Events per second of wall-clock time spent processing them.
     pub events_per_second: f64,
+    /// Collisions per second of wall-clock time spent processing events.
     pub collisions_per_second: f64,
-    /// Events dropped from the calendar: superseded by a newer prediction of their owner, and
-    /// invalidated by a change of their partner's course (the owner then predicted again).
+    /// Events dropped from the calendar because a newer prediction of their owner superseded
+    /// them.
     pub invalidated_superseded: u64,
+    /// Events dropped because their partner's course changed (the owner then predicted again).
     pub invalidated_partner: u64,
-    /// Largest number of events the calendar held, and how often it was rebuilt.
+    /// Largest number of events the calendar held.
     pub calendar_peak: usize,
+    /// Times the calendar was rebuilt from its live events.
     pub calendar_compactions: u64,
-    /// Balls at rest, and sliding on a wall, at the end.
+    /// Balls at rest at the end.
     pub at_rest: usize,
+    /// Balls sliding on a wall at the end.
     pub sliding: usize,
+    /// The rest and collapse models' parameters.
     pub params: ExactParams,
 }
 

@@ -61,8 +61,8 @@ use serde::Serialize;
 use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
-    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, closing_slack, coincident_normal, collide, cone_contains, flight,
-    pair_time, plane_time, soft_restitution,
+    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, closing_slack, coincident_normal,
+    collide, cone_contains, flight, pair_time, plane_time, soft_restitution,
 };
 
 /// The walls' inward normals, in the order of [`Partner::Wall`]: left, right, bottom, top.
@@ -168,18 +168,22 @@ struct Cold {
 /// What the engine counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ExactCounters {
-    /// Ball–ball collisions.
+    /// Ball–ball collisions (a cluster resolved at once counts as one).
     pub collisions: u64,
+    /// Bounces off a wall.
     pub wall_bounces: u64,
+    /// Crossings of a ball's centre into another cell of the grid.
     pub cell_crossings: u64,
     /// Balls predicted.
     pub predictions: u64,
     /// Collisions and bounces slower than the collapse speed, whose restitution the collapse
     /// model raised towards 1.
     pub soft_collisions: u64,
-    /// Balls that came to rest; balls that landed sliding on a wall; balls woken from rest.
+    /// Balls that came to rest.
     pub rests: u64,
+    /// Balls that landed sliding on a wall.
     pub slides: u64,
+    /// Balls woken from rest.
     pub wakes: u64,
     /// Groups of slow balls that came to rest together, each held by the others.
     pub group_rests: u64,
@@ -191,12 +195,13 @@ pub struct ExactCounters {
     pub separation_fixes: u64,
     /// Overlapping pairs pushed apart when the balls were loaded (see `World::separate_overlaps`).
     pub overlaps_separated: u64,
-    /// Collisions and bounces made plastic as a ball's 17th or later at one instant (see
+    /// Slow collisions and bounces made plastic as a ball's 17th or later at one instant (see
     /// `World::note_instant`).
     pub instant_plastic: u64,
     /// Clusters of touching balls whose contacts were resolved at once (see
-    /// `World::resolve_cluster`), and the Gauss–Seidel sweeps beyond the first they took.
+    /// `World::resolve_cluster`).
     pub cluster_solves: u64,
+    /// The Gauss–Seidel sweeps beyond the first that those took.
     pub cluster_sweeps: u64,
     /// The most collisions and bounces one ball had at one instant.
     pub most_at_instant: u32,
@@ -273,6 +278,7 @@ pub struct World {
     next_id: u32,
     /// Impulses the walls took, banked (the loads of balls at rest are added when read).
     impulses: WallImpulses,
+    /// What it counted.
     pub counters: ExactCounters,
     /// Scratch: balls woken, and balls come to rest, during one event; contact normals.
     woken: Vec<usize>,
@@ -371,30 +377,37 @@ impl World {
 
     // ---- reading ------------------------------------------------------------------------
 
+    /// The clock: the instant of the last event processed or of the last `advance_to`, s.
     pub fn now(&self) -> f64 {
         self.now
     }
 
+    /// Balls on the field.
     pub fn len(&self) -> usize {
         self.hot.len()
     }
 
+    /// Whether there are no balls.
     pub fn is_empty(&self) -> bool {
         self.hot.is_empty()
     }
 
+    /// The field (its restitution as set now).
     pub fn field(&self) -> &Field {
         &self.field
     }
 
+    /// The effects that act (never drag or attraction).
     pub fn effects(&self) -> &Effects {
         &self.effects
     }
 
+    /// The rest and collapse models' parameters.
     pub fn params(&self) -> ExactParams {
         self.params
     }
 
+    /// What the calendar counted.
     pub fn calendar_stats(&self) -> CalendarStats {
         self.calendar.stats
     }
@@ -431,10 +444,12 @@ impl World {
         out.extend((0..self.len()).map(|i| self.ball(i)));
     }
 
+    /// The index of the ball with `id`.
     pub fn index_of(&self, id: BallId) -> Option<usize> {
         self.cold.binary_search_by_key(&id, |c| c.id).ok()
     }
 
+    /// The index of the key ball.
     pub fn key_index(&self) -> Option<usize> {
         self.cold.iter().position(|c| c.kind == BallKind::Key)
     }
@@ -644,12 +659,11 @@ impl World {
             Motion::Sliding(k) => k as usize,
             _ => 4,
         };
-        for k in 0..4 {
+        for (k, n) in WALL_NORMALS.iter().enumerate() {
             if k == sliding_on {
                 continue;
             }
-            let n = WALL_NORMALS[k];
-            if let Some(t) = plane_time(self.wall_gap(k, x, r), v.dot(n), a.dot(n))
+            if let Some(t) = plane_time(self.wall_gap(k, x, r), v.dot(*n), a.dot(*n))
                 && t < best
             {
                 (best, partner) = (t, Some(Partner::Wall(k as u8)));
@@ -706,7 +720,7 @@ impl World {
                 break;
             }
             n = n.wrapping_add(1);
-            if n % 1024 == 0 && !go_on() {
+            if n.is_multiple_of(1024) && !go_on() {
                 return false;
             }
             self.step();
@@ -796,9 +810,9 @@ impl World {
         self.normals.clear();
         let r = self.hot[i].r;
         let tol = 1e-6 * self.cold[i].diameter;
-        for k in 0..4 {
+        for (k, n) in WALL_NORMALS.iter().enumerate() {
             if self.wall_gap(k, x, r) <= tol {
-                self.normals.push(WALL_NORMALS[k]);
+                self.normals.push(*n);
             }
         }
         let (hot, cold, normals) = (&self.hot, &self.cold, &mut self.normals);
@@ -1120,7 +1134,8 @@ impl World {
             near.clear();
             self.cells.for_each_near(m, |k| near.push(k));
             for &k in &near {
-                if k != m && self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting && self.touching(m, k) {
+                if k != m && self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting && self.touching(m, k)
+                {
                     self.mark[k] = self.epoch;
                     members.push(k);
                 }
@@ -1219,7 +1234,8 @@ impl World {
         let dr = xj - xi;
         let dist = dr.length();
         let sigma = self.hot[i].r + self.hot[j].r;
-        let coincident = !(dist > 1e-9 * sigma);
+        // NaN-safe: a distance that is not clearly positive counts as coincident.
+        let coincident = dist.partial_cmp(&(1e-9 * sigma)) != Some(std::cmp::Ordering::Greater);
         let n = if coincident { coincident_normal(self.cold[i].id, self.cold[j].id) } else { dr / dist };
         // The impulse acts along `d = Δr` itself, not along the unit `n`: `Δv·d` is the dot
         // product the prediction judged the pair by (so its sign is the one that made the event
@@ -1418,7 +1434,11 @@ impl World {
         let ec = if walls.contains(&nc) {
             soft_restitution(self.field.restitution, -v.dot(nc), self.params.collapse_speed)
         } else {
-            soft_restitution(self.effects.collisions.map_or(1.0, |c| c.restitution), -v.dot(nc), self.params.collapse_speed)
+            soft_restitution(
+                self.effects.collisions.map_or(1.0, |c| c.restitution),
+                -v.dot(nc),
+                self.params.collapse_speed,
+            )
         };
         let (tk, tc) = (-ek * v.dot(nk), -ec * v.dot(nc));
         let v_new = DVec2::new(tk * nc.y - tc * nk.y, nk.x * tc - nc.x * tk) / det;
@@ -1518,6 +1538,7 @@ impl World {
         self.predict_others([k, k]);
     }
 
+    /// The pull on the key ball now, N.
     pub fn pull(&self) -> DVec2 {
         self.key_index().map_or(DVec2::ZERO, |k| self.cold[k].force)
     }
@@ -1545,6 +1566,7 @@ impl World {
         self.predict(i);
     }
 
+    /// Sets the walls' and the balls' restitution (from the next collision on).
     pub fn set_restitution(&mut self, walls: f64, balls: f64) {
         self.field.restitution = walls;
         if let Some(c) = &mut self.effects.collisions {
