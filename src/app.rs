@@ -25,7 +25,7 @@ use winit::window::{Window, WindowId};
 pub use keys::{Action, Arrow, HOTKEYS, Hotkey, help_lines};
 pub use panel::{Command, EnergySample, MOUSE_HELP, PANEL_WIDTH, PanelFrame, PanelPainter, Readouts, Settings, run_ui};
 
-use crate::engine::{self, Engine, EngineKind};
+use crate::engine::{self, Engine, EngineError, EngineKind};
 use crate::physics::{
     Attraction, Ball, BallId, BallKind, Bodies, Effects, attraction_potential_energy, gravity_potential_energy,
     kinetic_energy, momentum,
@@ -622,6 +622,21 @@ impl App {
         *flag = !*flag;
         let effects = self.effects_from_settings();
         self.engine.set_effects(effects);
+        // An engine that cannot run an effect (the exact one: drag, attraction) runs without it:
+        // the switch goes back off and the panel says why.
+        let got = self.engine.effects();
+        let dropped: Vec<&str> = [
+            ("drag", effects.drag.is_some() && got.drag.is_none()),
+            ("attraction", effects.attraction.is_some() && got.attraction.is_none()),
+        ]
+        .into_iter()
+        .filter_map(|(name, lost)| lost.then_some(name))
+        .collect();
+        if !dropped.is_empty() {
+            *which(&mut self.settings) = false;
+            let kind = self.engine.kind();
+            self.report_error(EngineError::Unsupported { engine: kind, effects: dropped.join(" and ") }.to_string());
+        }
     }
 
     /// A key went down (`pressed`) or up; `repeat`: the keyboard's own repeat of a held key.
