@@ -11,10 +11,9 @@
 //! collision found up to a step late and replayed from the instant of touching along the normal of
 //! the moment it is found must be. Bounds: order within 0.85..1.15, the finest error below 1e-3 m.
 //!
-//! Seen to fail on broken builds: the exact engine's collision impulse over one mass only (the
-//! errors stop falling below dt = 1e-3: order 0.3), and lockstep's replay time `τ = δ/|v_rel|`
-//! taken as 0 (the error is the same first order but twice as large: the check of the order passes,
-//! and that of the finest error fails at 1.1e-3 m).
+//! Seen to fail on broken builds: the exact engine's collision impulse over one mass only (its
+//! balls then fly apart too fast and reach a wall: the check that the exact runs are what the test
+//! means fails first).
 
 use ballfield::Lockstep;
 use ballfield::engine::{Engine, ExactEngine, Placement};

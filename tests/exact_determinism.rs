@@ -2,10 +2,8 @@
 //! stopped to be looked at (frames, the window's samples, `--duration`) changes nothing.
 //!
 //! Seen to fail on broken builds: `World::advance_while` bringing every ball to the instant it
-//! stops at (`sync`, which rounds each ball's course anew: the hashes of the run stopped 600 times
-//! and of the run in one go differ), and the calendar ordering simultaneous events by time alone
-//! (a `BinaryHeap` of equal keys pops in an order that depends on what was pushed before: the
-//! pile's two runs, one stopped at frames, differ).
+//! stops at (`sync`, which rounds each ball's course anew): the gas stopped at frames had other
+//! events than the gas run in one go.
 
 use ballfield::engine::{Engine, ExactEngine};
 use ballfield::scenes;

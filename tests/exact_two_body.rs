@@ -6,10 +6,9 @@
 //! (Δv·n)·n`), so a wrong root, normal or impulse in the engine shows as a difference far above
 //! rounding.
 //!
-//! Seen to fail on broken builds: the impulse of `physics::collide` over `nᵀW_a n` alone (every
-//! unequal mass ratio, error 0.5 and up), the contact root taken as the larger one in
-//! `entry_time` (the pair passes through: error ~1), and the wall bounce with `−0.999·v_n` (error
-//! 1e-3).
+//! Seen to fail on broken builds: the impulse of `physics::collide` over `dᵀW_a d` alone, and the
+//! contact root taken as the larger one in `entry_time` (each: the pair at mass ratio 1e-6 collides
+//! more than once); the wall bounce with `−0.999·e·v_n` (the bounce test).
 
 use ballfield::engine::{Engine, ExactEngine};
 use ballfield::physics::{Ball, BallId, BallKind, Collisions, Effects, Field, Gravity};

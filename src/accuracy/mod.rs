@@ -556,7 +556,7 @@ fn order_cell(f: &Fit) -> String {
     }
 }
 
-fn write_file(path: &Path, text: &str) -> Result<(), AccuracyError> {
+pub(crate) fn write_file(path: &Path, text: &str) -> Result<(), AccuracyError> {
     std::fs::write(path, text).map_err(|source| AccuracyError::Io { path: path.to_path_buf(), source })
 }
 

@@ -91,6 +91,7 @@ pub fn check_effects(effects: &Effects) -> Result<(), EngineError> {
 }
 
 /// [`World`] behind the engine interface.
+#[derive(Clone)]
 pub struct ExactEngine {
     world: World,
     scene_dt: f64,
