@@ -119,9 +119,11 @@ impl RunReport {
             if self.active_effects.is_empty() { "none (vacuum)".into() } else { self.active_effects.join(", ") }
         );
         let _ = writeln!(s, "balls        {}", self.balls);
+        // The exact engine takes no steps: its unit of work is the event.
+        let unit = if self.exact.is_some() { "events" } else { "steps" };
         let _ = writeln!(
             s,
-            "ran          {} steps = {:.3} s simulated in {:.3} s wall ({:.0} steps/s)",
+            "ran          {} {unit} = {:.3} s simulated in {:.3} s wall ({:.0} {unit}/s)",
             self.steps, self.simulated_seconds, self.wall_seconds, self.steps_per_second
         );
         if let Some(threads) = self.threads {

@@ -10,8 +10,9 @@
 //!
 //! - `calendar.rs` — the binary heap of predicted events, lazily invalidated;
 //! - `cells.rs` — the cell list the neighbours are found in;
-//! - `world.rs` — the balls, their prediction, and what each event does (with the rest and TC
-//!   models for inelastic collisions under gravity).
+//! - `world.rs` — the balls, their prediction, and what each event does (with the rest model for
+//!   balls pressed against walls and each other, the collapse model for slow inelastic
+//!   collisions, and the rules for many collisions at one instant).
 
 mod calendar;
 mod cells;
@@ -113,7 +114,8 @@ impl ExactEngine {
         Ok(ExactEngine::with_params(scene, params))
     }
 
-    /// The engine for `scene` (drag and attraction ignored) with its own rest and TC parameters.
+    /// The engine for `scene` (drag and attraction ignored) with its own rest and collapse
+    /// parameters.
     pub fn with_params(scene: &Scene, params: ExactParams) -> ExactEngine {
         let field = scene.field;
         let balls: Vec<Ball> = scene.balls.iter().map(|b| admit(*b, &field).unwrap_or(*b)).collect();

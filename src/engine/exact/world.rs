@@ -50,10 +50,26 @@
 //!
 //! **Inelastic collapse** (infinitely many collisions in a finite time, in a cluster with e < 1)
 //! is stopped by a restitution that rises to 1 for collisions slower than `collapse_speed`
-//! ([`soft_restitution`], the model of Bizon et al. 1998), counted as `soft_collisions`.
+//! ([`soft_restitution`], the model of Bizon et al. 1998), counted as `soft_collisions`. It is
+//! chosen over the TC model of Luding & McNamara (1998), which makes a collision elastic when it
+//! comes within a time `tc` of the ball's last: that keeps a ball rattling between two held
+//! neighbours for ever, at the energy it had when its collisions came faster than `1/tc`.
+//!
+//! **Many collisions at one instant.** Touching balls held at both ends (a row between balls at
+//! rest, a ball in a gap a hair narrower than itself) can pass slow collisions around without the
+//! clock moving; [`World::note_instant`] bounds them: a ball's 17th slow collision at one
+//! instant resolves its cluster of touching balls at once ([`World::resolve_cluster`]), its 65th
+//! puts it to rest where it is, and any ball's 65,536th at one instant, in any scene, does too.
+//!
+//! **Rounding.** An event is the first instant a gap function is `≤ 0` and decreasing
+//! (`physics::event`, after Bannerman et al. 2014), so a pair that touches or overlaps after
+//! rounding is never stuck; a touching pair that closes by less than a few roundings of its
+//! speeds does not count as closing ([`closing_slack`]); balls given to the engine overlapping are
+//! pushed apart first ([`World::separate_overlaps`]).
 //!
 //! None of this acts at e = 1 on balls that do not rest on each other: an elastic gas, with or
-//! without gravity, is exact to rounding.
+//! without gravity, is exact to rounding (its energy kept to 1e-15 over 10⁶ collisions,
+//! `tests/exact_gas.rs`).
 
 use glam::DVec2;
 use serde::Serialize;
@@ -97,7 +113,7 @@ const CLUSTER_PASSES: usize = 4;
 /// The most sweeps [`World::separate_overlaps`] makes over the balls.
 const MAX_SEPARATION_SWEEPS: usize = 64;
 
-/// The parameters of the rest and TC models.
+/// The parameters of the rest and collapse models.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ExactParams {
     /// A rebound lower than this fraction of the ball's diameter ends in sliding or rest.
@@ -1242,7 +1258,8 @@ impl World {
         // due, and the one the next prediction sees), and an impulse along `d` carries no
         // rounding of a normalisation. Along `n = Δr/|Δr|`, whose length is 1 only to rounding,
         // the rounding of `|n|²` does not average out: an elastic gas's energy drifts steadily
-        // (see docs/accuracy/exact.md); along `Δr` it only wanders by its roundings.
+        // (6.7e-14 in 10⁶ collisions, see `tests/exact_gas.rs`); along `Δr` it only wanders by its
+        // roundings (1.1e-15).
         let (d, len) = if coincident { (n, 1.0) } else { (dr, dist) };
         let v_rel = |h: &[Hot]| (h[j].v - h[i].v).dot(d);
         let vd = v_rel(&self.hot);
