@@ -46,22 +46,47 @@ pub struct Event {
     pub partner: Partner,
 }
 
-impl Event {
-    /// A total order for the heap: time first, then owner and partner, so that simultaneous
-    /// events come out in the same order on every run.
-    fn key(&self) -> (f64, u32, u64) {
-        let p = match self.partner {
-            Partner::Ball(j, _) => j as u64,
-            Partner::Wall(w) => (1 << 40) | w as u64,
-            Partner::Cell(c) => (2 << 40) | c as u64,
-        };
-        (self.time, self.owner, p)
-    }
+/// The partner codes of walls and cell boundaries: above every ball's index, so that among
+/// simultaneous events of one owner the collisions come first, then the walls, then the cells.
+const WALL_CODE: u32 = u32::MAX - 16;
+const CELL_CODE: u32 = u32::MAX - 8;
+
+/// The heap's element, 24 bytes: the event packed with its order. Earliest first: time, then
+/// owner, then partner, so that simultaneous events come out in the same order on every run. The time is kept as its bits, which order as the time does for the
+/// non-negative times of a calendar (a `-0.0` is made `+0.0` when packed), so that a comparison
+/// is two integer comparisons.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    time: u64,
+    /// `owner << 32 | partner code` (a ball's index, or [`WALL_CODE`] / [`CELL_CODE`] + side).
+    tie: u64,
+    serial: u32,
+    /// The partner ball's course counter (0 for walls and cells).
+    count: u32,
 }
 
-/// The heap's element: `Event` ordered earliest first (a max-heap of reversed keys).
-#[derive(Clone, Copy, Debug)]
-struct Entry(Event);
+impl Entry {
+    fn pack(e: Event) -> Entry {
+        let (code, count) = match e.partner {
+            Partner::Ball(j, c) => (j, c),
+            Partner::Wall(w) => (WALL_CODE + w as u32, 0),
+            Partner::Cell(c) => (CELL_CODE + c as u32, 0),
+        };
+        Entry { time: (e.time + 0.0).to_bits(), tie: (e.owner as u64) << 32 | code as u64, serial: e.serial, count }
+    }
+
+    fn unpack(self) -> Event {
+        let code = self.tie as u32;
+        let partner = if code >= CELL_CODE {
+            Partner::Cell((code - CELL_CODE) as u8)
+        } else if code >= WALL_CODE {
+            Partner::Wall((code - WALL_CODE) as u8)
+        } else {
+            Partner::Ball(code, self.count)
+        };
+        Event { time: f64::from_bits(self.time), owner: (self.tie >> 32) as u32, serial: self.serial, partner }
+    }
+}
 
 impl PartialEq for Entry {
     fn eq(&self, other: &Self) -> bool {
@@ -76,9 +101,8 @@ impl PartialOrd for Entry {
 }
 impl Ord for Entry {
     fn cmp(&self, other: &Self) -> Ordering {
-        let (a, b) = (self.0.key(), other.0.key());
         // Reversed: the earliest event is the heap's greatest.
-        b.0.total_cmp(&a.0).then(b.1.cmp(&a.1)).then(b.2.cmp(&a.2))
+        (other.time, other.tie).cmp(&(self.time, self.tie))
     }
 }
 
@@ -123,19 +147,19 @@ impl Calendar {
 
     /// Adds an event.
     pub fn push(&mut self, event: Event) {
-        self.heap.push(Entry(event));
+        self.heap.push(Entry::pack(event));
         self.stats.pushed += 1;
         self.stats.peak_len = self.stats.peak_len.max(self.heap.len());
     }
 
     /// The time of the earliest event, live or not.
     pub fn next_time(&self) -> Option<f64> {
-        self.heap.peek().map(|e| e.0.time)
+        self.heap.peek().map(|e| f64::from_bits(e.time))
     }
 
     /// Takes the earliest event, live or not (the caller checks it).
     pub fn pop(&mut self) -> Option<Event> {
-        self.heap.pop().map(|e| e.0)
+        self.heap.pop().map(Entry::unpack)
     }
 
     /// Rebuilds the heap from the events `live` keeps, when the heap holds more than four times
@@ -145,7 +169,7 @@ impl Calendar {
             return;
         }
         let mut v = std::mem::take(&mut self.heap).into_vec();
-        v.retain(|e| live(&e.0));
+        v.retain(|e| live(&e.unpack()));
         self.heap = BinaryHeap::from(v);
         self.stats.compactions += 1;
     }

@@ -675,8 +675,12 @@ impl World {
             Motion::Sliding(k) => k as usize,
             _ => 4,
         };
+        // Only a ball in a cell along a wall can meet it before it crosses into another cell
+        // (cells are wider than any ball): the others skip the walls.
+        let (cx, cy) = self.cells.cell_of(i);
+        let edge = [cx == 0, cx + 1 == self.cells.nx, cy == 0, cy + 1 == self.cells.ny];
         for (k, n) in WALL_NORMALS.iter().enumerate() {
-            if k == sliding_on {
+            if k == sliding_on || !edge[k] {
                 continue;
             }
             if let Some(t) = plane_time(self.wall_gap(k, x, r), v.dot(*n), a.dot(*n))
