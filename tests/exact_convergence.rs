@@ -21,7 +21,14 @@ use ballfield::physics::{Ball, BallId, BallKind, Collisions, Effects, Field, Int
 use glam::DVec2;
 
 fn ball(id: u32, x: f64, y: f64, vx: f64, vy: f64, mass: f64, diameter: f64) -> Ball {
-    Ball { id: BallId(id), kind: BallKind::Ball, position: DVec2::new(x, y), velocity: DVec2::new(vx, vy), mass, diameter }
+    Ball {
+        id: BallId(id),
+        kind: BallKind::Ball,
+        position: DVec2::new(x, y),
+        velocity: DVec2::new(vx, vy),
+        mass,
+        diameter,
+    }
 }
 
 const T_END: f64 = 3.0;
