@@ -108,6 +108,28 @@ impl Cells {
         self.cell_of[i] = c as u32;
     }
 
+    /// Calls `f` with every ball in the three cells that joined ball `i`'s 3 × 3 block when it
+    /// crossed into its cell across `side` (as [`Cells::cross`] takes it): the column or row
+    /// beyond its new cell, if the grid has one.
+    #[inline]
+    pub fn for_each_joined(&self, i: usize, side: u8, mut f: impl FnMut(usize)) {
+        let (cx, cy) = self.cell_of(i);
+        let (xs, ys) = match side {
+            0 if cx > 0 => ((cx - 1, cx - 1), (cy.saturating_sub(1), (cy + 1).min(self.ny - 1))),
+            1 if cx + 1 < self.nx => ((cx + 1, cx + 1), (cy.saturating_sub(1), (cy + 1).min(self.ny - 1))),
+            2 if cy > 0 => ((cx.saturating_sub(1), (cx + 1).min(self.nx - 1)), (cy - 1, cy - 1)),
+            3 if cy + 1 < self.ny => ((cx.saturating_sub(1), (cx + 1).min(self.nx - 1)), (cy + 1, cy + 1)),
+            _ => return,
+        };
+        for y in ys.0..=ys.1 {
+            for x in xs.0..=xs.1 {
+                for &j in &self.members[x + self.nx * y] {
+                    f(j as usize);
+                }
+            }
+        }
+    }
+
     /// Calls `f` with every ball in the 3 × 3 block of cells around ball `i`'s (`i` included).
     #[inline]
     pub fn for_each_near(&self, i: usize, mut f: impl FnMut(usize)) {
