@@ -796,7 +796,13 @@ impl ManyBodyReport {
 pub fn run_command(out: &Path, quick: bool) -> Result<(), AccuracyError> {
     let config = if quick { ManyBodyConfig::quick() } else { ManyBodyConfig::full() };
     let report = run(&config, |what| eprintln!("accuracy (many-body): {what} ..."))?;
-    let text = report.markdown();
+    let mut text = report.markdown();
+    // The machine's load says how much the wall times owe to other work (Linux only).
+    if let Some(load) =
+        std::fs::read_to_string("/proc/loadavg").ok().and_then(|l| l.split(' ').next().map(String::from))
+    {
+        let _ = writeln!(text, "\nLoad average (1 min) of the machine when the runs ended: {load}.");
+    }
     println!("{text}");
     std::fs::create_dir_all(out).map_err(|source| AccuracyError::Io { path: out.to_path_buf(), source })?;
     let (md, svg) = (out.join("many-body.md"), out.join("many-body.svg"));
