@@ -277,6 +277,7 @@ impl Engine for ThreadedEngine {
             state_hash: None,
             threads: None,
             runtime: Some(stats),
+            exact: None,
         }
     }
 
