@@ -76,7 +76,10 @@ fn melted(packing: f64) -> (ExactEngine, Field, Vec<Ball>) {
 fn bench_collisions(c: &mut Criterion) {
     let clock = Clock::from_env();
     let mut group = c.benchmark_group("collisions");
-    group.sampling_mode(SamplingMode::Flat).warm_up_time(Duration::from_secs(2)).measurement_time(Duration::from_secs(8));
+    group
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(2))
+        .measurement_time(Duration::from_secs(8));
     group.throughput(Throughput::Elements(1));
     for packing in [0.3, 0.6] {
         let warm = OnceCell::new();
@@ -108,7 +111,8 @@ fn bench_to_simulated_time(c: &mut Criterion) {
         let get = || {
             warm.get_or_init(|| {
                 let (exact, field, balls) = melted(packing);
-                let mut lockstep = Lockstep::from_parts(field, elastic(), Integrator::SemiImplicitEuler, DT, DISKS, &balls);
+                let mut lockstep =
+                    Lockstep::from_parts(field, elastic(), Integrator::SemiImplicitEuler, DT, DISKS, &balls);
                 lockstep.set_threads(1);
                 (exact, lockstep)
             })

@@ -304,8 +304,13 @@ fn exact_at(field: Field, effects: Effects, balls: &[Ball], t: f64) -> Result<(V
 /// passes 1e-2 m; the least-squares slope of ln d against t over `FIT_RANGE`. Also the
 /// collisions per ball per second.
 #[allow(clippy::type_complexity)]
-fn lyapunov(field: Field, effects: Effects, balls: &[Ball]) -> Result<(f64, (f64, f64), Vec<(f64, f64)>, f64), AccuracyError> {
-    let start = |b: &[Ball]| ExactEngine::from_parts(field, effects, b).map_err(|e| AccuracyError::Problem(e.to_string()));
+fn lyapunov(
+    field: Field,
+    effects: Effects,
+    balls: &[Ball],
+) -> Result<(f64, (f64, f64), Vec<(f64, f64)>, f64), AccuracyError> {
+    let start =
+        |b: &[Ball]| ExactEngine::from_parts(field, effects, b).map_err(|e| AccuracyError::Problem(e.to_string()));
     let mut nudged = balls.to_vec();
     nudged[0].position.x += NUDGE;
     let (mut a, mut b) = (start(balls)?, start(&nudged)?);
@@ -342,7 +347,8 @@ fn run_gas(
     let (field, effects, balls) = gravity_gas(config.gas_balls);
     progress("gas: the Lyapunov exponent");
     let (lambda, range, divergence, rate) = lyapunov(field, effects, &balls)?;
-    (report.lyapunov, report.lyapunov_range, report.divergence, report.collision_rate) = (lambda, range, divergence, rate);
+    (report.lyapunov, report.lyapunov_range, report.divergence, report.collision_rate) =
+        (lambda, range, divergence, rate);
     // Horizons inside the exponential growth: a difference grows tenfold, and a thousandfold.
     for growth in [10.0f64, 1000.0] {
         let horizon = growth.ln() / lambda;
@@ -362,7 +368,8 @@ fn run_gas(
                 let ((), wall) = timed(|| l.run(n));
                 // Lockstep stops at a whole step: the exact state at that instant.
                 let at = n as f64 * dt;
-                let want = if (at - horizon).abs() > 0.0 { exact_at(field, effects, &balls, at)?.0 } else { want.clone() };
+                let want =
+                    if (at - horizon).abs() > 0.0 { exact_at(field, effects, &balls, at)?.0 } else { want.clone() };
                 let engine = if integrator == Integrator::Leapfrog { "lockstep (leapfrog)" } else { "lockstep" };
                 let error = distance(&l.bodies().to_balls(), &want);
                 report.gas.push(ErrorRow { engine, dt: Some(dt), horizon, error, wall_seconds: wall });
@@ -417,10 +424,15 @@ fn z_of(total_impulse: f64, seconds: f64, field: &Field, kinetic: f64) -> f64 {
 /// Melts a gas of `n` disks at `packing` (as many collisions as are measured), then measures Z
 /// over `collisions_per_ball` collisions per disk in ten blocks. Returns the row, the melted
 /// balls, its field and the kinetic energy.
-fn measure_z(n: usize, packing: f64, collisions_per_ball: u64) -> Result<(PressureRow, Vec<Ball>, Field, f64, f64), AccuracyError> {
+fn measure_z(
+    n: usize,
+    packing: f64,
+    collisions_per_ball: u64,
+) -> Result<(PressureRow, Vec<Ball>, Field, f64, f64), AccuracyError> {
     let per = collisions_per_ball * n as u64;
     let (field, balls) = disk_gas(n, packing, 7).expect("a valid gas");
-    let start = |b: &[Ball]| ExactEngine::from_parts(field, elastic(), b).map_err(|e| AccuracyError::Problem(e.to_string()));
+    let start =
+        |b: &[Ball]| ExactEngine::from_parts(field, elastic(), b).map_err(|e| AccuracyError::Problem(e.to_string()));
     let mut e = start(&balls)?;
     e.run_collisions(per);
     let melted = balls_of(&mut e);
@@ -454,7 +466,11 @@ fn measure_z(n: usize, packing: f64, collisions_per_ball: u64) -> Result<(Pressu
     Ok((row, melted, field, kinetic, e.time()))
 }
 
-fn run_pressure(config: &ManyBodyConfig, report: &mut ManyBodyReport, mut progress: impl FnMut(&str)) -> Result<(), AccuracyError> {
+fn run_pressure(
+    config: &ManyBodyConfig,
+    report: &mut ManyBodyReport,
+    mut progress: impl FnMut(&str),
+) -> Result<(), AccuracyError> {
     let n = config.z_balls;
     for &packing in &config.z_packings {
         progress(&format!("pressure: packing {packing}"));
@@ -464,7 +480,13 @@ fn run_pressure(config: &ManyBodyConfig, report: &mut ManyBodyReport, mut progre
         if (packing - 0.3).abs() < 1e-9 {
             report.finite_size.push(row);
             // The exact engine's own uncertainty is statistical: the standard error of its Z.
-            report.pressure_lockstep.push(ErrorRow { engine: "exact", dt: None, horizon: span, error: spread, wall_seconds: wall });
+            report.pressure_lockstep.push(ErrorRow {
+                engine: "exact",
+                dt: None,
+                horizon: span,
+                error: spread,
+                wall_seconds: wall,
+            });
             for &dt in &config.z_dts {
                 progress(&format!("pressure: lockstep dt {dt}"));
                 let mut l = Lockstep::from_parts(field, elastic(), Integrator::SemiImplicitEuler, dt, n, &melted);
@@ -550,7 +572,10 @@ impl ManyBodyReport {
              T = {CRADLE_END} s.\n",
             self.cradle_leave
         );
-        let _ = writeln!(s, "| engine | dt (s) | last ball's speed (m/s) | its error | leave instant (s) | its error (s) | speeds of all six (m/s) | wall (s) |");
+        let _ = writeln!(
+            s,
+            "| engine | dt (s) | last ball's speed (m/s) | its error | leave instant (s) | its error (s) | speeds of all six (m/s) | wall (s) |"
+        );
         let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---|---:|");
         for r in &self.cradle {
             let speeds: Vec<String> = r.speeds.iter().map(|v| format!("{v:.3}")).collect();
@@ -594,7 +619,15 @@ impl ManyBodyReport {
         let _ = writeln!(s, "| horizon (s) | engine | dt (s) | position error (m) | wall (s) |");
         let _ = writeln!(s, "|---:|---|---:|---:|---:|");
         for r in &self.gas {
-            let _ = writeln!(s, "| {:.3} | {} | {} | {:.2e} | {:.4} |", r.horizon, r.engine, dt_text(r.dt), r.error, r.wall_seconds);
+            let _ = writeln!(
+                s,
+                "| {:.3} | {} | {} | {:.2e} | {:.4} |",
+                r.horizon,
+                r.engine,
+                dt_text(r.dt),
+                r.error,
+                r.wall_seconds
+            );
         }
         let _ = writeln!(s, "\n## Hard-disk pressure from the walls' gauge\n");
         let _ = writeln!(
@@ -605,7 +638,10 @@ impl ManyBodyReport {
              wall is not the bulk's, which shows as a difference of order (perimeter × diameter)/area from the bulk's Z.\n",
             self.config.z_balls, self.config.z_collisions_per_ball
         );
-        let _ = writeln!(s, "| packing η | Z (exact, walls) | ± (10 blocks) | Henderson | difference | collisions | wall (s) |");
+        let _ = writeln!(
+            s,
+            "| packing η | Z (exact, walls) | ± (10 blocks) | Henderson | difference | collisions | wall (s) |"
+        );
         let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|");
         for r in &self.pressure {
             let _ = writeln!(
@@ -650,7 +686,15 @@ impl ManyBodyReport {
             let _ = writeln!(s, "| engine | dt (s) | simulated (s) | Z error | wall (s) |");
             let _ = writeln!(s, "|---|---:|---:|---:|---:|");
             for r in &self.pressure_lockstep {
-                let _ = writeln!(s, "| {} | {} | {:.2} | {:.2e} | {:.3} |", r.engine, dt_text(r.dt), r.horizon, r.error, r.wall_seconds);
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.2} | {:.2e} | {:.3} |",
+                    r.engine,
+                    dt_text(r.dt),
+                    r.horizon,
+                    r.error,
+                    r.wall_seconds
+                );
             }
         }
         let _ = writeln!(s, "\nThe plot: [many-body.svg](many-body.svg).");
@@ -674,8 +718,11 @@ impl ManyBodyReport {
             ("pressure at η = 0.3: Z error (relative)", self.pressure_lockstep.iter().collect()),
         ];
         for (area, (title, rows)) in areas.iter().zip(panels) {
-            let pts: Vec<(&str, f64, f64)> =
-                rows.iter().filter(|r| r.wall_seconds > 0.0).map(|r| (r.engine, r.wall_seconds, r.error.max(1e-16))).collect();
+            let pts: Vec<(&str, f64, f64)> = rows
+                .iter()
+                .filter(|r| r.wall_seconds > 0.0)
+                .map(|r| (r.engine, r.wall_seconds, r.error.max(1e-16)))
+                .collect();
             if pts.is_empty() {
                 continue;
             }
@@ -704,9 +751,16 @@ impl ManyBodyReport {
                     .map_err(|e| e.to_string())?
                     .label(engine)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
-                chart.draw_series(series.iter().map(|&p| Circle::new(p, 4, colour.filled()))).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(series.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                    .map_err(|e| e.to_string())?;
             }
-            chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw().map_err(|e| e.to_string())?;
+            chart
+                .configure_series_labels()
+                .background_style(WHITE)
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| e.to_string())?;
         }
         root.present().map_err(|e| e.to_string())
     }

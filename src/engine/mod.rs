@@ -108,6 +108,7 @@ pub enum EngineError {
     /// The operating system refused to start a ball or monitor thread; the text is its error.
     #[error("could not start a thread: {0}")]
     Spawn(String),
+    /// The engine cannot run an effect the scene turns on (the exact engine: drag, attraction).
     #[error(
         "the {engine} engine cannot run {effects}: it runs collisions, uniform gravity and the key ball's pull \
          only; turn {effects} off or use the lockstep or threaded engine"
