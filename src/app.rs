@@ -39,7 +39,9 @@ use crate::scenes;
 pub struct AppOptions {
     /// The scene's name or file, as given.
     pub scene_name: String,
+    /// The scene the window opens on.
     pub scene: Scene,
+    /// The engine the window starts with (the E key and the panel switch it).
     pub engine: EngineKind,
     /// How often the field is sampled and redrawn.
     pub sample_every: Duration,
@@ -49,42 +51,70 @@ pub struct AppOptions {
     pub report: Option<PathBuf>,
     /// Window size in pixels; `None` = the field at 10 px/m plus the panel.
     pub size: Option<(u32, u32)>,
+    /// Whether the panel shows at start (Tab toggles it).
     pub panel: bool,
 }
 
+/// Why the window could not run, or could not write its report.
 #[derive(Debug, thiserror::Error)]
 pub enum AppError {
+    /// winit could not create or run its event loop, usually for want of a display; the text is
+    /// winit's error.
     #[error("cannot open a window: {0} (is there a display? `ballfield headless` needs none)")]
     EventLoop(String),
+    /// The engine, the window, its surface or the GPU device could not be set up; the text says
+    /// which and why.
     #[error("{0}")]
     Start(String),
+    /// The `--report` file could not be written. The window ran to its end.
     #[error("--report {file}: cannot write: {cause}")]
-    Report { file: PathBuf, cause: std::io::Error },
+    Report {
+        /// The file given as `--report`.
+        file: PathBuf,
+        /// What the file system said.
+        cause: std::io::Error,
+    },
 }
 
 /// What happened in the window, written at exit with `--report` (the end-to-end tests read it).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct AppReport {
+    /// The scene last played: the name or file given at start, or the built-in scene's name
+    /// after a switch (1–8 or the panel).
     pub scene: String,
+    /// The engine that ran last ([`EngineKind::name`]).
     pub engine: String,
+    /// The GPU adapter the window drew with: its name, backend and device type (empty if the
+    /// window never got a surface).
     pub adapter: String,
+    /// The surface's texture format, as wgpu's `Debug` writes it ("Bgra8Unorm", ...).
     pub surface_format: String,
+    /// The surface's present mode, as wgpu's `Debug` writes it ("Fifo", "Mailbox", ...).
     pub present_mode: String,
+    /// Wall-clock time the window was open, s.
     pub seconds: f64,
+    /// Frames drawn.
     pub frames: u64,
+    /// `frames / seconds`, the mean over the whole run.
     pub frames_per_second: f64,
     /// Median time from the start of a frame to the GPU having drawn it (panel included), ms.
     pub frame_ms_median: f64,
     /// Wall-clock time between two ticks from the first frame on, ms: the cadence the window
     /// kept, and how late it can be to see a key (an event waits for the frame being drawn).
     pub tick_gap_ms_median: f64,
+    /// The longest of those gaps, ms.
     pub tick_gap_ms_max: f64,
+    /// Balls in the scene the window opened on, the key ball included.
     pub balls_start: usize,
+    /// Balls on the field at the last sample (a ball held by the mouse is off it).
     pub balls_end: usize,
+    /// Balls added by a key, the panel or a mouse drop (refused additions not counted).
     pub balls_added: u64,
+    /// Balls taken off by a key or the panel (a grab is not a removal).
     pub balls_removed: u64,
-    /// The key ball's position at the first and the last sample, m.
+    /// The key ball's position at the first sample that has one, m; `None` if none did.
     pub key_start: Option<[f64; 2]>,
+    /// The key ball's position at the last sample, m; `None` if it was not on the field.
     pub key_end: Option<[f64; 2]>,
     /// Key presses acted on (synthetic ones and the keyboard's repeats are ignored and not
     /// counted).
@@ -126,6 +156,7 @@ pub struct CommandRecord {
     /// The ball the command was about: the one added, removed, grabbed, thrown or dropped, as
     /// the engine has it afterwards (as it was taken off, for a removal or a grab).
     pub ball: Option<Ball>,
+    /// The window's state right after the command (its fields sit beside these in the JSON).
     #[serde(flatten)]
     pub state: WindowState,
 }
@@ -133,11 +164,14 @@ pub struct CommandRecord {
 /// The window's state at one instant (after a command, or at the end).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct WindowState {
+    /// The engine that runs ([`EngineKind::name`]).
     pub engine: String,
+    /// The scene's own name (its `name` key), not the file it came from.
     pub scene: String,
     /// The engine's simulated clock, s: for the lockstep engine the time of its last step, from
     /// which a pull set now applies.
     pub time: f64,
+    /// Whether the engine is paused (Space, P or the panel).
     pub paused: bool,
     /// Balls on the field (a grabbed ball is off it until it is thrown).
     pub balls: usize,
@@ -145,11 +179,17 @@ pub struct WindowState {
     pub effects: Vec<String>,
     /// The pull the window asks for, N.
     pub pull: [f64; 2],
+    /// The key ball as sampled; `None` when the scene has none or the mouse holds it.
     pub key_ball: Option<Ball>,
+    /// Whether the panel shows (Tab).
     pub panel: bool,
+    /// Whether the help overlay shows (H).
     pub help: bool,
+    /// Whether velocity arrows are drawn on the balls (V).
     pub vectors: bool,
+    /// Whether the centre of mass is marked (M).
     pub centre_of_mass: bool,
+    /// Whether the traces of the key ball and of the balls with ids below 32 are drawn (T).
     pub traces: bool,
 }
 
@@ -779,9 +819,10 @@ impl App {
 
     fn diagnostics(&mut self, now: Instant) {
         // What the panel shows: energies, momentum and pressure, O(n) sums (attraction's
-        // potential is O(n²), as the effect itself is). `measure` also finds the largest overlap
-        // with a broad phase over all the balls, and a sorted copy of them was made for it: 25–60
-        // ms at 100,000 balls, every 100 ms, a stall of the 15 ms cadence; now about 1 ms.
+        // potential is O(n²), as the effect itself is) into scratch kept across calls. Not
+        // `measure`: it also finds the largest overlap, with a broad phase over a sorted copy of
+        // all the balls, 25–60 ms at 100,000 balls every 100 ms, a stall of the 15 ms cadence;
+        // these sums take about 1 ms there.
         let bodies = &mut self.diag_bodies;
         bodies.clear();
         for b in &self.balls {

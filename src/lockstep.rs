@@ -7,11 +7,13 @@
 //!
 //! 1. **integrate** — the force passes of the enabled effects, inside the chosen integrator;
 //! 2. **broad phase** — the grid finds the touching pairs (only with collisions on);
-//! 3. **contacts** — one normal impulse per approaching pair, overlaps pushed apart; for
-//!    inelastic contacts under gravity, then one *support pass* from the floor up (see
-//!    `ContactSolver::support_pass`: without it a pile's weight hides in overlaps);
-//! 4. **walls** — reflect and sum the wall impulses (before the contacts when the support pass
-//!    runs, see [`Lockstep::step`]).
+//! 3. **contacts** — the contact solver (`crate::physics::ContactSolver`'s phases, band by band):
+//!    impacts with restitution from the instant of contact, resting contacts carrying the weight,
+//!    overlaps pushed apart; walls are contacts in it (only with collisions on). A perfectly
+//!    elastic field (ball restitution 1) goes through sequential elastic impulses instead
+//!    (`elastic_contacts`), which keep its energy to rounding however dense it is;
+//! 4. **walls** — without collisions or with elastic ones, reflect and sum the wall impulses here
+//!    (with the contact solver, this only catches a ball that some push left past a wall).
 //!
 //! **Threads.** With [`Lockstep::set_threads`] > 1 (the default is every core) and at least
 //! [`PARALLEL_MIN_BALLS`] balls, the phases share the work out over a thread pool: integration
@@ -22,6 +24,7 @@
 //! threads (a test runs 1, 2 and 4).
 
 mod contact_solver;
+mod elastic_contacts;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -34,17 +37,18 @@ use rayon::prelude::*;
 use crate::engine::EngineError;
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Drag, Effects, Field, Forces, Integrator,
-    IntegratorScratch, PointForce, SpanRates, StepPolicy, WallImpulses, cap_speed, contact_ball_wall, drag_rate,
-    drag_rate_bound, integrate, measure,
+    IntegratorScratch, PointForce, SpanRates, StepPolicy, TOUCH_MARGIN, Tolerances, WallImpulses, cap_speed,
+    contact_ball_wall, drag_rate, drag_rate_bound, integrate, measure, near_a_wall, resting_drift,
 };
 #[cfg(doc)]
 use crate::physics::{MAX_SPEED, MAX_TRAVEL};
 use crate::scene::Scene;
-use contact_solver::ContactSolver;
 pub use contact_solver::PARALLEL_MIN_PAIRS;
+use contact_solver::{ContactSolver, Inputs};
+use elastic_contacts::ElasticContacts;
 
-/// Passes of the contact solver over the touching pairs in each (sub-)step.
-pub const CONTACT_ITERATIONS: usize = 4;
+/// Passes of the elastic contacts over the touching pairs in each (sub-)step.
+const ELASTIC_PASSES: usize = 4;
 /// Fewest balls for which the phases are shared out over threads (below it, one thread is faster
 /// than the hand-over).
 pub const PARALLEL_MIN_BALLS: usize = 4096;
@@ -58,28 +62,37 @@ pub const CHUNK: usize = 2048;
 /// Time spent in each phase, summed over steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct StepCounters {
+    /// Whole steps taken.
     pub steps: u64,
     /// Sub-steps taken (equal to `steps` when no ball was fast; see [`MAX_TRAVEL`]).
     pub substeps: u64,
     #[serde(serialize_with = "secs")]
+    /// Time in the integrate pass.
     pub integrate: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the broad phase (finding candidate pairs).
     pub broad_phase: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the contact solver.
     pub contacts: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the finish pass (speed caps, walls, the split's speeds).
     pub walls: Duration,
     /// Candidate pairs the contact solver checked: every touching pair, and those within the
     /// broad phase's skin of touching (see [`SKIN`]).
     pub touching_pairs: u64,
     /// Times the broad phase searched afresh (the rest of the sub-steps reused its pairs).
     pub grid_builds: u64,
-    /// Ball–ball impulses applied (approaching pairs).
+    /// Ball–ball impacts (pairs struck with restitution).
     pub impulses: u64,
     /// Ball–wall contacts.
     pub wall_contacts: u64,
-    /// Pairs the support pass stopped or lifted (inelastic piles under gravity).
-    pub supported: u64,
+    /// Contacts (pairs and walls) still touching after the impacts, summed over sub-steps: the
+    /// resting contacts that carry a pile's weight.
+    pub resting: u64,
+    /// Sub-steps in which a phase of the contact solver reached its iteration cap (the state
+    /// stays valid, the contacts only less exactly solved; 0 in the shipped scenes' runs).
+    pub unconverged: u64,
     /// Times a ball's speed was capped at [`MAX_SPEED`] (0 in every sane field).
     pub speed_limited: u64,
     /// Sub-steps whose drag was too stiff even for the shortest sub-step, so the drag pass capped
@@ -92,6 +105,7 @@ fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
 }
 
 impl StepCounters {
+    /// Time in all four phases.
     pub fn total(&self) -> Duration {
         self.integrate + self.broad_phase + self.contacts + self.walls
     }
@@ -117,6 +131,12 @@ pub struct Lockstep {
     scratch: Vec<IntegratorScratch>,
     broad_phase: BroadPhase,
     contacts: ContactSolver,
+    /// The contacts of a perfectly elastic field (see [`Lockstep::elastic`]).
+    elastic: ElasticContacts,
+    /// Whether the pairs were last found for `elastic` (else for `contacts`).
+    pairs_elastic: bool,
+    /// The balls near a wall this sub-step (see [`Lockstep::integrate_phase`]).
+    near_walls: Vec<u32>,
     /// Positions at the last grid build, and whether the pairs must be found afresh regardless
     /// (balls added or removed, collisions turned on).
     built_positions: Vec<DVec2>,
@@ -137,10 +157,13 @@ pub struct Lockstep {
 }
 
 impl Lockstep {
+    /// An engine for the scene, as it is at its start.
     pub fn new(scene: &Scene) -> Self {
         Self::from_parts(scene.field, scene.effects, scene.integrator, scene.dt, scene.max_balls, &scene.balls)
     }
 
+    /// An engine from its parts: the balls are taken as given (ids kept; new balls get ids past the largest).
+    /// `max_balls` caps [`Lockstep::add_ball`].
     pub fn from_parts(
         field: Field,
         effects: Effects,
@@ -166,15 +189,18 @@ impl Lockstep {
             counters: StepCounters::default(),
             scratch: Vec::new(),
             broad_phase: {
-                // Pairs left exactly touching by the solver still carry a pile's support.
+                // Pairs the solver left exactly touching still carry a pile's weight.
                 let mut grid = BroadPhase::new();
-                grid.set_margin(crate::physics::SUPPORT_MARGIN);
+                grid.set_margin(TOUCH_MARGIN);
                 grid.set_skin(SKIN);
                 grid
             },
             built_positions: Vec::new(),
             grid_stale: true,
             contacts: ContactSolver::default(),
+            elastic: ElasticContacts::default(),
+            pairs_elastic: false,
+            near_walls: Vec::new(),
             adaptive_substeps: true,
             split_speeds: None,
             drag_c: None,
@@ -184,18 +210,23 @@ impl Lockstep {
         }
     }
 
+    /// The balls, in the engine's order.
     pub fn bodies(&self) -> &Bodies {
         &self.bodies
     }
+    /// The field (size, walls' restitution).
     pub fn field(&self) -> &Field {
         &self.field
     }
+    /// The effects on.
     pub fn effects(&self) -> &Effects {
         &self.effects
     }
+    /// The integrator.
     pub fn integrator(&self) -> Integrator {
         self.integrator
     }
+    /// The step, s.
     pub fn dt(&self) -> f64 {
         self.dt
     }
@@ -203,18 +234,23 @@ impl Lockstep {
     pub fn time(&self) -> f64 {
         self.time
     }
+    /// Steps taken.
     pub fn steps(&self) -> u64 {
         self.steps
     }
+    /// What the phases took and counted, summed over steps.
     pub fn counters(&self) -> &StepCounters {
         &self.counters
     }
+    /// The impulse each wall has given, N·s, summed since the start.
     pub fn wall_impulses(&self) -> WallImpulses {
         self.wall_impulses
     }
+    /// The pull on the key ball, N.
     pub fn pull(&self) -> DVec2 {
         self.pull
     }
+    /// The most balls the engine takes.
     pub fn max_balls(&self) -> usize {
         self.max_balls
     }
@@ -263,6 +299,7 @@ impl Lockstep {
         }
     }
 
+    /// Threads the phases share out over (1: serial).
     pub fn threads(&self) -> usize {
         self.threads
     }
@@ -289,10 +326,12 @@ impl Lockstep {
         self.pool.clone()
     }
 
+    /// Sets the integrator (the next step uses it).
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
     }
 
+    /// Sets the step, s (the caller checks it is finite and positive).
     pub fn set_dt(&mut self, dt: f64) {
         self.dt = dt;
     }
@@ -302,6 +341,7 @@ impl Lockstep {
         self.pull = force;
     }
 
+    /// Sets the walls' restitution (the caller keeps it in [0, 1]; see `engine::clamp_restitution`).
     pub fn set_field_restitution(&mut self, restitution: f64) {
         self.field.restitution = restitution;
     }
@@ -334,6 +374,7 @@ impl Lockstep {
         Ok(ball.id)
     }
 
+    /// Removes ball `id` and returns it, or [`EngineError::NoSuchBall`].
     pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.forget_derived();
@@ -478,12 +519,13 @@ impl Lockstep {
     /// One sub-step: three passes over the balls, however many effects are on —
     ///
     /// 1. **integrate** (chunked, see [`Lockstep::integrate_phase`]): the forces and the
-    ///    integrator; with the support pass, the walls too; and how far the balls have moved
-    ///    since the pairs were last found;
-    /// 2. **broad phase** and **contacts**, when collisions are on;
+    ///    integrator, how far the balls have moved since the pairs were last found, and which
+    ///    balls are near a wall;
+    /// 2. **broad phase** and **contacts**, when collisions are on: the contact solver, walls
+    ///    included, on the state the free motion left;
     /// 3. **finish** (chunked, see [`Lockstep::finish_phase`], timed as `walls`): speeds capped at
-    ///    [`MAX_SPEED`], the walls unless they went first, and the speeds the next sub-step's
-    ///    split is judged by.
+    ///    [`MAX_SPEED`], the walls for a ball past one (all of them without collisions), and the
+    ///    speeds the next sub-step's split is judged by.
     ///
     /// Each ball sees the very same arithmetic, in the same order, as in separate passes; fusing
     /// them only saves reading the balls again and, on several threads, the hand-overs between
@@ -491,47 +533,67 @@ impl Lockstep {
     fn substep(&mut self, h: f64) {
         let pool = self.parallel();
         let pool = pool.as_deref();
-        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        // The support pass stands the pile on the floor, so the walls go first: a crossing in free
-        // flight is replayed exactly along its path (see `contact_ball_wall`), and the support
-        // pass then puts back what the contacts pushed into a wall. Elastic (or weightless)
-        // fields have the walls after the contacts, so a ball a contact pushed past a wall is
-        // bounced in the same step (the elastic pile keeps its energy to 1e-13 this way; with the
-        // walls first, to 1e-6).
-        let support = self.support_direction().is_some();
         let t0 = Instant::now();
-        let moved2 = self.integrate_phase(h, pool, support);
+        let moved2 = self.integrate_phase(h, pool);
         let t1 = Instant::now();
         self.counters.integrate += t1 - t0;
         if let Some(collisions) = self.effects.collisions {
             self.broad_phase_phase(moved2, pool);
             let t2 = Instant::now();
             self.counters.broad_phase += t2 - t1;
-            let (bodies, grid, contacts) = (&mut self.bodies, &self.broad_phase, &mut self.contacts);
-            let impulses = in_pool(pool, || {
-                contacts.solve(bodies, grid, collisions.restitution, h, CONTACT_ITERATIONS, pool.is_some())
-            });
-            self.counters.impulses += impulses;
-            if support {
-                self.counters.supported += contacts.support_pass(bodies, -gravity.normalize(), &self.field);
+            if self.elastic() {
+                let (bodies, grid, elastic) = (&mut self.bodies, &self.broad_phase, &mut self.elastic);
+                let impulses = in_pool(pool, || {
+                    elastic.solve(bodies, grid, collisions.restitution, h, ELASTIC_PASSES, pool.is_some())
+                });
+                self.counters.impulses += impulses;
+                self.counters.contacts += t2.elapsed();
+                let t3 = Instant::now();
+                self.finish_phase(pool);
+                self.counters.walls += t3.elapsed();
+                return;
             }
+            let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+            let key = self.bodies.key_index();
+            let key_acceleration = key.map_or(DVec2::ZERO, |k| self.pull * self.bodies.inverse_mass[k]);
+            let largest = gravity.length().max((gravity + key_acceleration).length());
+            let inputs = Inputs {
+                restitution: collisions.restitution,
+                field: &self.field,
+                span: h,
+                drift: resting_drift(self.integrator),
+                tolerances: Tolerances::new(largest, h),
+                gravity,
+                key,
+                key_acceleration,
+                near_walls: &self.near_walls,
+            };
+            let (bodies, grid, contacts) = (&mut self.bodies, &self.broad_phase, &mut self.contacts);
+            let outcome = in_pool(pool, || contacts.solve(bodies, grid, &inputs, pool.is_some()));
+            self.counters.impulses += outcome.impacts;
+            self.counters.wall_contacts += outcome.wall_contacts;
+            self.counters.resting += outcome.resting;
+            self.counters.unconverged += u64::from(!outcome.converged);
+            self.wall_impulses.add_all(&outcome.walls);
             self.counters.contacts += t2.elapsed();
         }
         let t3 = Instant::now();
-        self.finish_phase(pool, !support);
+        self.finish_phase(pool);
         self.counters.walls += t3.elapsed();
     }
 
-    /// The force passes inside the integrator; then, ball by ball in the same chunks, the walls
-    /// when they go first (`walls`) and how far each ball has moved since the pairs were last
-    /// found. Returns the largest squared such distance (+∞ when the pairs must be found afresh
-    /// anyway, 0 without collisions).
+    /// The force passes inside the integrator; then, ball by ball in the same chunks, how far
+    /// each ball has moved since the pairs were last found and (with collisions on) which balls
+    /// are near a wall, for the contact solver (kept in `near_walls`, in index order). Returns the
+    /// largest squared such distance (+∞ when the pairs must be found afresh anyway, 0 without
+    /// collisions).
     ///
     /// Without attraction every ball's update reads only that ball, so the balls are integrated
     /// in chunks of [`CHUNK`] (on the pool's threads when there is one): the same arithmetic on
     /// every ball as one whole-field call. Attraction couples them: one whole-field integration,
     /// then the per-ball work in chunks.
-    fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>, walls: bool) -> f64 {
+    fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>) -> f64 {
+        let elastic = self.elastic();
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
@@ -555,12 +617,11 @@ impl Lockstep {
         // Where the balls were when the pairs were last found, if those pairs may still serve.
         let built = (self.effects.collisions.is_some() && !self.grid_stale && self.built_positions.len() == n)
             .then_some(&self.built_positions[..]);
-        let key = self.bodies.key_index();
         let Bodies { position, velocity, mass, inverse_mass, diameter, radius, .. } = &mut self.bodies;
         let (mass, inverse_mass, diameter, radius) = (&mass[..], &inverse_mass[..], &diameter[..], &radius[..]);
-        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        let walls =
-            walls.then_some(WallPass { field: &self.field, gravity, pull: self.pull, key, radius, mass, inverse_mass });
+        let field = &self.field;
+        // Only the inelastic contact solver takes the walls as contacts.
+        let collisions = self.effects.collisions.is_some() && !elastic;
         let step = local.then_some(LocalStep {
             method,
             dt,
@@ -577,9 +638,14 @@ impl Lockstep {
                 step.run(base, x, v, scratch);
             }
             let mut tally = ChunkTally::default();
-            if let Some(walls) = &walls {
-                for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
-                    walls.bounce(base + k, x, v, &mut tally);
+            if collisions {
+                // Near enough that the sub-step's travel or a contact's push may bring it to the
+                // wall (a ball moves at most MAX_TRAVEL radii per sub-step).
+                for (k, (x, v)) in x.iter().zip(v.iter()).enumerate() {
+                    let r = radius[base + k];
+                    if near_a_wall(*x, r, r + v.length() * dt, field) {
+                        tally.near_walls.push((base + k) as u32);
+                    }
                 }
             }
             if let Some(built) = built {
@@ -590,21 +656,27 @@ impl Lockstep {
         for_chunks(pool, position, velocity, &mut self.scratch, &mut self.tallies, chunk);
         let stale = self.effects.collisions.is_some() && built.is_none();
         let moved2 = self.tallies.iter().fold(0.0f64, |m, t| m.max(t.moved2));
-        self.add_wall_tallies();
+        self.near_walls.clear();
+        for t in &mut self.tallies {
+            self.near_walls.append(&mut t.near_walls);
+        }
         if stale { f64::INFINITY } else { moved2 }
     }
 
     /// The last pass of a sub-step, ball by ball in chunks: the speed capped at [`MAX_SPEED`], the
-    /// walls (unless they went first: `walls`), and the speeds the next sub-step's split needs
-    /// (kept for [`Lockstep::split_rates`]).
-    fn finish_phase(&mut self, pool: Option<&rayon::ThreadPool>, walls: bool) {
+    /// walls for a ball past one (with collisions on, the contact solver has met the walls
+    /// already, so only a ball some push left past one is bounced here, its impulse on the
+    /// gauge), and the speeds the next sub-step's split needs (kept for
+    /// [`Lockstep::split_rates`]).
+    fn finish_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
+        let elastic = self.elastic();
         let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
         let key = self.bodies.key_index();
         let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
         let Bodies { position, velocity, radius, mass, inverse_mass, diameter, .. } = &mut self.bodies;
         let (radius, mass, inverse_mass, diameter) = (&radius[..], &mass[..], &inverse_mass[..], &diameter[..]);
-        let walls =
-            walls.then_some(WallPass { field: &self.field, gravity, pull: self.pull, key, radius, mass, inverse_mass });
+        let slack = if collisions && !elastic { TOUCH_MARGIN } else { 0.0 };
+        let walls = WallPass { field: &self.field, slack, gravity, pull: self.pull, key, radius, mass, inverse_mass };
         let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], _: &mut IntegratorScratch| {
             // One loop per job over the chunk (it is in cache by then): each stays simple enough
             // for the compiler to vectorise, which one loop doing all of them is not.
@@ -615,10 +687,8 @@ impl Lockstep {
                     tally.speed_limited += 1;
                 }
             }
-            if let Some(walls) = &walls {
-                for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
-                    walls.bounce(range.start + k, x, v, &mut tally);
-                }
+            for (k, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
+                walls.bounce(range.start + k, x, v, &mut tally);
             }
             tally.speeds = SplitSpeeds::measure(
                 collisions,
@@ -654,15 +724,6 @@ impl Lockstep {
         }
     }
 
-    /// The direction of gravity when the contacts get a support pass: inelastic piles under
-    /// gravity (see `ContactSolver::support_pass`). Elastic contacts keep their energy exactly
-    /// and never need it.
-    fn support_direction(&self) -> Option<DVec2> {
-        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-        let inelastic = self.effects.collisions.is_some_and(|c| c.restitution < 1.0);
-        (inelastic && gravity != DVec2::ZERO).then(|| gravity.normalize())
-    }
-
     /// Finds the candidate pairs afresh only when some ball has moved more than half the skin
     /// since the last search (`moved2`, the largest squared distance, measured by the integrate
     /// pass; see [`SKIN`]); otherwise the last list still holds every touching pair and the
@@ -670,20 +731,46 @@ impl Lockstep {
     fn broad_phase_phase(&mut self, moved2: f64, pool: Option<&rayon::ThreadPool>) {
         let b = &self.bodies;
         let half_skin = 0.5 * self.broad_phase.skin();
-        if moved2 > half_skin * half_skin {
-            let support = self.support_direction();
+        let elastic = self.elastic();
+        if moved2 > half_skin * half_skin || elastic != self.pairs_elastic {
+            self.pairs_elastic = elastic;
+            if elastic {
+                self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
+                let (grid, contacts) = (&self.broad_phase, &mut self.elastic);
+                in_pool(pool, || contacts.find_pairs(grid, pool.is_some()));
+                self.contacts.forget();
+                self.built_positions.clear();
+                self.built_positions.extend_from_slice(&b.position);
+                self.grid_stale = false;
+                self.counters.grid_builds += 1;
+                self.counters.touching_pairs += self.elastic.pair_count() as u64;
+                return;
+            }
+            // The resting impulses are carried over to the new pairs by ball ids, unless balls
+            // were added or removed (then the old pairs' slots no longer name the same balls).
+            if self.grid_stale {
+                self.contacts.forget();
+            } else {
+                self.contacts.remember(b, &self.broad_phase);
+            }
             self.broad_phase.update(&b.position, &b.radius, self.field.width, self.field.height);
             let (grid, contacts) = (&self.broad_phase, &mut self.contacts);
-            in_pool(pool, || contacts.find_pairs(grid, pool.is_some()));
-            if let Some(down) = support {
-                contacts.order_support(b, grid, down);
-            }
+            in_pool(pool, || contacts.find_pairs(b, grid, pool.is_some()));
             self.built_positions.clear();
             self.built_positions.extend_from_slice(&b.position);
             self.grid_stale = false;
             self.counters.grid_builds += 1;
         }
-        self.counters.touching_pairs += self.contacts.pair_count() as u64;
+        let pairs = if elastic { self.elastic.pair_count() } else { self.contacts.pair_count() };
+        self.counters.touching_pairs += pairs as u64;
+    }
+
+    /// Whether the contacts are perfectly elastic (ball restitution 1): they then go through
+    /// [`ElasticContacts`], sequential elastic impulses that keep the energy to rounding however
+    /// dense the field, and the walls through the finish pass; otherwise through the contact
+    /// solver, which takes the walls as contacts (see the module comment).
+    fn elastic(&self) -> bool {
+        self.effects.collisions.is_some_and(|c| c.restitution >= 1.0)
     }
 
     /// Energies, momentum, overlap and wall impulses now.
@@ -770,9 +857,11 @@ fn largest_drag_c(drag: &Drag, diameter: &[f64], mass: &[f64]) -> f64 {
 
 /// What one pass measured over one chunk of balls. The chunks' tallies are combined in chunk
 /// order, so the totals have the same bits on any number of threads.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 struct ChunkTally {
     walls: WallImpulses,
+    /// Balls near a wall (with collisions on; see [`Lockstep::integrate_phase`]).
+    near_walls: Vec<u32>,
     wall_contacts: u64,
     speed_limited: u64,
     /// Largest squared distance a ball has moved since the pairs were last found.
@@ -783,6 +872,11 @@ struct ChunkTally {
 /// The walls as each ball meets them (see `contact_ball_wall`).
 struct WallPass<'a> {
     field: &'a Field,
+    /// How far past a wall a ball must be to be bounced here: 0 without collisions; with them,
+    /// the contact solver's touching margin, as it has met every ball touching a wall already
+    /// (bouncing a ball that rests exactly on the floor again would kick it with the wall's
+    /// restitution).
+    slack: f64,
     gravity: DVec2,
     pull: DVec2,
     key: Option<usize>,
@@ -799,6 +893,13 @@ impl WallPass<'_> {
         let r = self.radius[i];
         if x.x > r && x.x < self.field.width - r && x.y > r && x.y < self.field.height - r {
             return;
+        }
+        if self.slack > 0.0 {
+            let (lo, hi) =
+                (r * (1.0 - self.slack), DVec2::new(self.field.width, self.field.height) - r * (1.0 - self.slack));
+            if x.x >= lo && x.y >= lo && x.x <= hi.x && x.y <= hi.y {
+                return;
+            }
         }
         // The ball's uniform acceleration during the step, for an exact bounce.
         let acceleration =

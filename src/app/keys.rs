@@ -12,9 +12,13 @@ use KeyCode as K;
 /// Which way an arrow key pulls the key ball.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Arrow {
+    /// ←: towards −x.
     Left = 0,
+    /// →: towards +x.
     Right = 1,
+    /// ↓: towards −y.
     Down = 2,
+    /// ↑: towards +y.
     Up = 3,
 }
 
@@ -48,7 +52,10 @@ pub enum Action {
 
 /// One line of the help: what the keys do, and the keys, each with the name the help shows.
 pub struct Hotkey {
+    /// What the keys do, as the help says it.
     pub what: &'static str,
+    /// Each key: its code, the name the help shows for it, and what it does. A key code appears
+    /// once in all of [`HOTKEYS`].
     pub keys: &'static [(KeyCode, &'static str, Action)],
 }
 

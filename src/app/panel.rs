@@ -14,26 +14,57 @@ use crate::scenes::BUILTIN;
 /// What the user asked for, by key, mouse or panel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Command {
+    /// Adds a ball at rest at a free spot, of the mass and size of the scene's first plain ball
+    /// (1 kg, 1 m if it has none). Refused, with a message, when the field is full or no spot is
+    /// free.
     AddBall,
+    /// Takes off the most recently added ball that is not the key ball; nothing if there is none.
     RemoveLast,
+    /// Pauses the engine, or resumes it.
     TogglePause,
+    /// While paused, advances one sampling period (15 ms by default) of wall-clock time's worth
+    /// of simulation, times the time scale; nothing while running.
     Step,
+    /// Starts the running engine again on the current scene: as it was loaded, or as the balls
+    /// stood at the last engine switch.
     Reset,
+    /// Turns gravity on or off (on: the scene's, or the default 9.81 m/s² down).
     ToggleGravity,
+    /// Turns drag on or off (on: the scene's, or the default quadratic drag in air).
     ToggleDrag,
+    /// Turns mutual attraction on or off (on: the scene's, or G = 1 m³/(kg·s²), which moves
+    /// balls visibly where the real G would not).
     ToggleAttraction,
+    /// Turns ball–ball collisions on or off (on: at the panel's restitution).
     ToggleCollisions,
+    /// Switches to the built-in scene at this index of [`crate::scenes::BUILTIN`] (an index past
+    /// the end does nothing), on the running engine.
     Scene(usize),
+    /// Switches to this engine, carrying over the balls as they are now, the effects, the pull,
+    /// the restitution and the time scale. If it cannot start, the running engine stays.
     Engine(EngineKind),
+    /// Shows or hides the panel.
     TogglePanel,
+    /// Shows or hides the help overlay.
     ToggleHelp,
+    /// Draws the balls' velocity arrows, or stops.
     ToggleVectors,
+    /// Marks the centre of mass, or stops.
     ToggleCentreOfMass,
+    /// Draws the traces of the key ball and of the balls with ids below 32, or stops (the
+    /// traces start afresh each time).
     ToggleTraces,
+    /// Closes the window.
     Quit,
+    /// The strength of the arrow keys' pull on the key ball, N (a negative value counts as 0).
     SetPull(f64),
+    /// The key ball's mass, kg, set in place (it keeps its id and velocity). A mass that is not
+    /// finite and positive is refused with a message.
     SetKeyMass(f64),
+    /// The restitution of the walls and of ball–ball collisions both, clamped to [0, 1].
     SetRestitution(f64),
+    /// Simulated seconds per wall-clock second (the panel offers 0.05–2); a negative or
+    /// non-finite scale is ignored.
     SetTimeScale(f64),
 }
 
@@ -159,49 +190,82 @@ impl PanelPainter {
 /// One sample of the energy plot.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct EnergySample {
+    /// Wall-clock seconds since the window opened.
     pub t: f64,
+    /// Kinetic energy of the balls on the field, J.
     pub kinetic: f64,
+    /// Potential energy of gravity and attraction (those that are on), J.
     pub potential: f64,
+    /// `kinetic + potential`, J.
     pub total: f64,
+    /// Length of the total momentum, kg·m/s.
     pub momentum: f64,
 }
 
 /// What the panel shows (refreshed by the app).
 #[derive(Clone, Debug, Default)]
 pub struct Readouts {
+    /// The scene's name and description, "name — description".
     pub scene: String,
+    /// The engine that runs; `None` until the first tick.
     pub engine: Option<EngineKind>,
+    /// Balls in play: on the field, plus the one the mouse holds.
     pub balls: usize,
+    /// Frames drawn per second over the last second.
     pub frame_rate: f64,
     /// Median time to draw a frame over the last 60, ms.
     pub frame_ms: f64,
+    /// [`crate::engine::Engine::rate`]: steps per second (lockstep) or the median ball's cycles
+    /// per second (threaded), read every 0.5 s.
     pub sim_rate: f64,
+    /// Whether the engine is paused.
     pub paused: bool,
+    /// Kinetic energy of the balls on the field, J (refreshed every 0.1 s, as are the figures
+    /// below).
     pub kinetic: f64,
+    /// Potential energy of gravity and attraction (those that are on), J.
     pub potential: f64,
+    /// `kinetic + potential`, J.
     pub total: f64,
+    /// Total momentum, kg·m/s.
     pub momentum: [f64; 2],
     /// Mean pressure on the walls over the last second, N/m (force per metre of wall).
     pub pressure: f64,
+    /// The energy plot's samples, oldest first: the last 20 s.
     pub history: VecDeque<EnergySample>,
+    /// The GPU adapter: its name, backend and device type.
     pub adapter: String,
+    /// The last command's refusal or error, shown in red; cleared by the next command.
     pub message: String,
 }
 
 /// The settings the panel edits (the app owns them).
 #[derive(Clone, Debug)]
 pub struct Settings {
+    /// Strength of the arrow keys' pull on the key ball, N (slider 0–2,000).
     pub pull: f64,
+    /// The key ball's mass, kg (slider 0.1–100).
     pub key_mass: f64,
+    /// Restitution of the walls and of ball–ball collisions, in [0, 1].
     pub restitution: f64,
+    /// Simulated seconds per wall-clock second (slider 0.05–2).
     pub time_scale: f64,
+    /// Whether gravity is on.
     pub gravity: bool,
+    /// Whether drag is on.
     pub drag: bool,
+    /// Whether mutual attraction is on.
     pub attraction: bool,
+    /// Whether ball–ball collisions are on.
     pub collisions: bool,
+    /// Whether velocity arrows are drawn.
     pub vectors: bool,
+    /// Whether the centre of mass is marked.
     pub centre_of_mass: bool,
+    /// Whether traces are drawn.
     pub traces: bool,
+    /// Index in [`crate::scenes::BUILTIN`] of the scene the panel's list shows (0 at start for a
+    /// scene from a file).
     pub scene: usize,
 }
 

@@ -55,7 +55,8 @@ impl LockstepEngine {
         }
     }
 
-    /// The engine itself (tests and the accuracy report read its bodies and counters).
+    /// The engine itself, for a caller that needs more than the interface gives (its bodies,
+    /// its counters).
     pub fn lockstep(&self) -> &Lockstep {
         &self.engine
     }

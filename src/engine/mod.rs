@@ -108,6 +108,7 @@ pub enum EngineError {
     /// The operating system refused to start a ball or monitor thread; the text is its error.
     #[error("could not start a thread: {0}")]
     Spawn(String),
+    /// The engine cannot run an effect the scene turns on (the exact engine: drag, attraction).
     #[error(
         "the {engine} engine cannot run {effects}: it runs collisions, uniform gravity and the key ball's pull \
          only; turn {effects} off or use the lockstep or threaded engine"
@@ -164,14 +165,17 @@ pub trait Engine: Send {
     fn time(&self) -> f64;
     /// Blocks until the simulated clock reaches `t` (the lockstep engine: the first whole step at
     /// or after `t`, to a hair of rounding). Returns at once if `t` has passed, or if the engine
-    /// is paused (the threaded engine's clock then stands still).
+    /// is paused (the threaded engine's clock then stands still) or, threaded, its time scale
+    /// is 0.
     fn advance_to(&mut self, t: f64);
     /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded). Nothing
     /// while paused.
     fn advance_steps(&mut self, n: u64);
     /// The window's tick, never blocking: `wall` is the wall-clock time since the last tick. The
-    /// lockstep engine runs the steps that time (times the time scale) is worth; the threaded one
-    /// ends a single step that is due.
+    /// lockstep engine runs the steps that time (times the time scale) is worth, counting at most
+    /// 0.1 s of it (after a stall the game slows down rather than catching up) and carrying the
+    /// part of a step left over to the next tick; the threaded one ends a single step that is
+    /// due.
     fn tick(&mut self, wall: Duration);
     /// Pauses (the clock stands still, the balls keep their state) or resumes the motion.
     fn set_paused(&mut self, paused: bool);
@@ -181,7 +185,7 @@ pub trait Engine: Send {
     /// scale), then stays paused.
     fn single_step(&mut self, span: Duration);
     /// Simulated seconds per wall-clock second (slow motion below 1); applies to [`Engine::tick`]
-    /// and to the threaded engine's clock.
+    /// and to the threaded engine's clock. A negative or non-finite scale is ignored.
     fn set_time_scale(&mut self, scale: f64);
     /// Simulated seconds per wall-clock second now (see [`Engine::set_time_scale`]).
     fn time_scale(&self) -> f64;
@@ -209,7 +213,8 @@ pub trait Engine: Send {
     fn set_velocity(&mut self, id: BallId, velocity: DVec2) -> Result<(), EngineError>;
     /// Sets a ball's mass in place, keeping its id and velocity (the panel's key-ball slider).
     fn set_mass(&mut self, id: BallId, mass: f64) -> Result<(), EngineError>;
-    /// The pull on the key ball, N (zero releases it). Ignored when there is no key ball.
+    /// The pull on the key ball, N (zero releases it). Ignored when there is no key ball, and a
+    /// force with a non-finite component is ignored.
     fn set_pull(&mut self, force: DVec2);
     /// The id of the key ball, if there is one.
     fn key_ball(&self) -> Option<BallId>;

@@ -75,7 +75,8 @@ impl ThreadedEngine {
         })
     }
 
-    /// The runtime itself (tests and the threaded accuracy report read its table and stats).
+    /// The runtime itself, for a caller that needs more than the interface gives (its table,
+    /// its stats).
     pub fn runtime(&self) -> &Runtime {
         &self.runtime
     }

@@ -1,6 +1,7 @@
-//! PNG frames of a headless run (`ballfield headless ... --frames DIR`), drawn offscreen through
-//! the same [`Renderer::render`](crate::render::Renderer::render) path as the window. When they
-//! are taken is the run loop's business (see the module above).
+//! PNG frames of a headless run (`ballfield headless ... --frames DIR`), drawn offscreen by the
+//! same drawing as the window's ([`Renderer::render`](crate::render::Renderer::render); the
+//! window records it through `Renderer::encode` to add its panel). When they are taken is the
+//! run loop's business (see the module above).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -1,57 +1,112 @@
-//! The contact phase: sequential impulses over the touching pairs, band by band, on one thread or
-//! several with the same bits.
+//! The contact phase: the physics contact solver's phases (`crate::physics::contact_solver`)
+//! driven band by band, on one thread or several with the same bits.
 //!
-//! The broad phase groups the pairs by band, by seam between bands and with big balls (see
-//! [`crate::physics::BroadPhase`]): the pairs of two different bands never share a ball, nor do
-//! those of two different seams. Every pass of the solver therefore works the pairs in this fixed
-//! order: band 0, band 1, …, then seam 0, seam 1, …, then the big balls' pairs. Done serially,
-//! that is one loop. Done in parallel, the bands are worked at the same time, then the seams,
-//! then the big balls on one thread; each ball still sees exactly the same sequence of updates as
-//! in the serial loop (only balls of *other* bands are updated in between, and they are never
-//! read), so the result is bit-identical for any number of threads.
+//! The broad phase groups the candidate pairs by band, by seam between bands and with big balls
+//! (see [`crate::physics::BroadPhase`]): the pairs of two different bands never share a ball, nor
+//! do those of two different seams. The contacts of a sub-step are kept in one list per band,
+//! per seam and one for the big balls, in that order; a ball's wall contacts go in the list of its
+//! band (or the big balls'). Each phase then works the lists in this fixed order:
+//!
+//! - **impacts**: one serial pass over all lists in order (impacts are few, and a round's Jacobi
+//!   sweeps do not depend on the order anyway);
+//! - **resting contacts** and **positions**: Gauss–Seidel passes, the bands at the same time,
+//!   then the seams, then the big balls on one thread. Each ball sees exactly the same sequence of
+//!   updates as in the serial loop (only balls of *other* bands are updated in between, and they
+//!   are never read), so the result is bit-identical for any number of threads. Whether to make
+//!   another pass is decided from the pass's largest change, a maximum: the same on any thread
+//!   count.
 //!
 //! For the parallel case the balls are copied into slot order (the broad phase's order, in which
 //! a band or a seam is one contiguous run), so each task gets its own `&mut` sub-slices by
 //! `split_at_mut`: no `unsafe`, no locks. The copy costs O(n) per sub-step, so it is only made
 //! when there are enough pairs to pay for it ([`PARALLEL_MIN_PAIRS`]); below that the serial loop
 //! works on the balls in place.
+//!
+//! **Warm start.** A resting contact's impulse is kept with its candidate pair between
+//! sub-steps (and carried over by ball ids when the pairs are found afresh), and a wall's with
+//! its ball: a settled pile's weight is then already in place when a sub-step starts, so its
+//! passes converge at once.
 
+use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::physics::{
-    BallId, Bodies, BroadPhase, ContactBody, Field, clamp_to_field, contact_ball_ball, contact_supported,
+    BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
+    MAX_RESTING_PASSES, RESTED, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls, pair_contact,
+    position_pass, resting_begin, resting_end, resting_pass, resting_warm_start, wall_contact, wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
-/// many as there are balls; see [`ContactSolver::solve`]).
+/// many as there are balls; see `ContactSolver::solve`).
 pub const PARALLEL_MIN_PAIRS: usize = 512;
 
-/// Impulses applied and pairs still overlapping in one pass (or summed over passes).
+/// A candidate pair (slots) and its resting impulse of the last sub-step (warm start).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Tally {
-    pub impulses: u64,
-    pub active: u64,
+struct Candidate {
+    k: u32,
+    m: u32,
+    impulse: f64,
+    /// Whether the sub-step has a contact for this pair (see [`ContactSolver::redetect`]).
+    listed: bool,
 }
 
-impl std::ops::Add for Tally {
-    type Output = Tally;
-    fn add(self, o: Tally) -> Tally {
-        Tally { impulses: self.impulses + o.impulses, active: self.active + o.active }
-    }
+/// What one sub-step's contacts did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outcome {
+    /// Ball–ball contacts struck with restitution.
+    pub impacts: u64,
+    /// Ball–wall contacts (touching during the sub-step).
+    pub wall_contacts: u64,
+    /// Contacts still touching after the impacts (the resting phase's).
+    pub resting: u64,
+    pub walls: WallImpulses,
+    /// False when a phase reached its iteration cap.
+    pub converged: bool,
+    pub rounds: u32,
+    pub resting_passes: u32,
+    pub position_passes: u32,
 }
 
-/// The touching pairs (as slots) grouped for the solver, and the slot-ordered copy of the balls.
+/// The per-sub-step inputs besides the balls.
+#[derive(Clone, Copy, Debug)]
+pub struct Inputs<'a> {
+    pub restitution: f64,
+    pub field: &'a Field,
+    pub span: f64,
+    pub drift: f64,
+    pub tolerances: Tolerances,
+    /// Uniform acceleration of every ball (gravity), and the key ball's index and its extra
+    /// acceleration (the pull).
+    pub gravity: DVec2,
+    pub key: Option<usize>,
+    pub key_acceleration: DVec2,
+    /// The balls near a wall (ball indices, increasing).
+    pub near_walls: &'a [u32],
+}
+
+/// The candidate pairs grouped for the solver, the sub-step's contacts, and scratch memory.
 #[derive(Clone, Debug, Default)]
 pub struct ContactSolver {
-    band_pairs: Vec<Vec<(u32, u32)>>,
-    seam_pairs: Vec<Vec<(u32, u32)>>,
-    big_pairs: Vec<(u32, u32)>,
+    band_pairs: Vec<Vec<Candidate>>,
+    seam_pairs: Vec<Vec<Candidate>>,
+    big_pairs: Vec<Candidate>,
+    /// The sub-step's contacts: one list per band, per seam, then the big balls'.
+    lists: Vec<Vec<Contact>>,
+    /// Wall contacts' resting impulses of the last sub-step, by (ball, axis 0 = x, 1 = y),
+    /// increasing.
+    wall_warm: Vec<(u32, u8, f64)>,
+    wall_warm_next: Vec<(u32, u8, f64)>,
+    /// Resting impulses by ball ids, carried over a fresh search for pairs.
+    carry: HashMap<(BallId, BallId), f64>,
     local: SlotBodies,
-    /// The support pass's pairs as (height of the lower ball, ball, ball), sorted.
-    support: Vec<(f64, u32, u32)>,
+    impact: ImpactScratch,
+    /// First slot of every band, and of the big balls (for placing wall contacts).
+    band_start: Vec<usize>,
+    /// The key ball's index into the sub-step's working arrays.
+    key_working: Option<usize>,
 }
 
 /// The balls in slot order (only filled for the parallel case).
@@ -64,7 +119,7 @@ struct SlotBodies {
     velocity: Vec<DVec2>,
 }
 
-/// What the solver reads but never writes, indexed like the pair lists say.
+/// The working arrays' fixed part, indexed like the contacts say.
 #[derive(Clone, Copy)]
 struct Fixed<'a> {
     id: &'a [BallId],
@@ -72,95 +127,117 @@ struct Fixed<'a> {
     radius: &'a [f64],
 }
 
+fn key(a: BallId, b: BallId) -> (BallId, BallId) {
+    if a <= b { (a, b) } else { (b, a) }
+}
+
 impl ContactSolver {
-    /// Touching pairs found by the last [`ContactSolver::find_pairs`].
+    /// Candidate pairs found by the last [`ContactSolver::find_pairs`].
     pub fn pair_count(&self) -> usize {
         self.band_pairs.iter().chain(&self.seam_pairs).map(Vec::len).sum::<usize>() + self.big_pairs.len()
     }
 
-    /// Collects the touching pairs of the grid's last update, band by band (in parallel when
-    /// `parallel`; the lists are the same either way).
-    pub fn find_pairs(&mut self, grid: &BroadPhase, parallel: bool) {
+    /// Forgets every warm-start impulse (balls were added or removed: indices moved).
+    pub fn forget(&mut self) {
+        self.carry.clear();
+        self.wall_warm.clear();
+        for c in self.band_pairs.iter_mut().chain(&mut self.seam_pairs).flatten().chain(&mut self.big_pairs) {
+            c.impulse = 0.0;
+        }
+    }
+
+    /// Remembers the resting impulses by ball ids before the pairs are found afresh (`grid` still
+    /// the one they were found in).
+    pub fn remember(&mut self, b: &Bodies, grid: &BroadPhase) {
+        self.carry.clear();
+        let slots = grid.slots();
+        for c in self.band_pairs.iter().chain(&self.seam_pairs).flatten().chain(&self.big_pairs) {
+            if c.impulse > 0.0 {
+                let (i, j) = (slots[c.k as usize] as usize, slots[c.m as usize] as usize);
+                self.carry.insert(key(b.id[i], b.id[j]), c.impulse);
+            }
+        }
+    }
+
+    /// Collects the candidate pairs of the grid's last update, band by band (in parallel when
+    /// `parallel`; the lists are the same either way), with the impulses [`remember`]ed.
+    ///
+    /// [`remember`]: ContactSolver::remember
+    pub fn find_pairs(&mut self, b: &Bodies, grid: &BroadPhase, parallel: bool) {
         let bands = grid.band_count();
         self.band_pairs.resize_with(bands, Vec::new);
         self.seam_pairs.resize_with(bands.saturating_sub(1), Vec::new);
-        let band = |b: usize, list: &mut Vec<(u32, u32)>| {
-            list.clear();
-            grid.for_each_band_pair(b, |k, m| list.push((k as u32, m as u32)));
+        let (slots, carry) = (grid.slots(), &self.carry);
+        let warm = |k: usize, m: usize| {
+            if carry.is_empty() {
+                return 0.0;
+            }
+            let (i, j) = (slots[k] as usize, slots[m] as usize);
+            carry.get(&key(b.id[i], b.id[j])).copied().unwrap_or(0.0)
         };
-        let seam = |b: usize, list: &mut Vec<(u32, u32)>| {
+        let band = |n: usize, list: &mut Vec<Candidate>| {
             list.clear();
-            grid.for_each_seam_pair(b, |k, m| list.push((k as u32, m as u32)));
+            grid.for_each_band_pair(n, |k, m| {
+                list.push(Candidate { k: k as u32, m: m as u32, impulse: warm(k, m), listed: false })
+            });
+        };
+        let seam = |n: usize, list: &mut Vec<Candidate>| {
+            list.clear();
+            grid.for_each_seam_pair(n, |k, m| {
+                list.push(Candidate { k: k as u32, m: m as u32, impulse: warm(k, m), listed: false })
+            });
         };
         if parallel {
-            self.band_pairs.par_iter_mut().enumerate().for_each(|(b, list)| band(b, list));
-            self.seam_pairs.par_iter_mut().enumerate().for_each(|(b, list)| seam(b, list));
+            self.band_pairs.par_iter_mut().enumerate().for_each(|(n, list)| band(n, list));
+            self.seam_pairs.par_iter_mut().enumerate().for_each(|(n, list)| seam(n, list));
         } else {
-            self.band_pairs.iter_mut().enumerate().for_each(|(b, list)| band(b, list));
-            self.seam_pairs.iter_mut().enumerate().for_each(|(b, list)| seam(b, list));
+            self.band_pairs.iter_mut().enumerate().for_each(|(n, list)| band(n, list));
+            self.seam_pairs.iter_mut().enumerate().for_each(|(n, list)| seam(n, list));
         }
         self.big_pairs.clear();
         let big = &mut self.big_pairs;
-        grid.for_each_big_pair(|k, m| big.push((k as u32, m as u32)));
+        grid.for_each_big_pair(|k, m| {
+            big.push(Candidate { k: k as u32, m: m as u32, impulse: warm(k, m), listed: false })
+        });
+        self.carry.clear();
     }
 
-    /// Runs up to `iterations` passes over the pairs (stopping after a pass in which no pair
-    /// overlapped) and returns the impulses applied. `parallel` says whether the bands may be
-    /// worked on several threads (the caller runs this inside its thread pool); it changes no
-    /// bit of the result.
-    pub fn solve(
-        &mut self,
-        bodies: &mut Bodies,
-        grid: &BroadPhase,
-        restitution: f64,
-        dt: f64,
-        iterations: usize,
-        parallel: bool,
-    ) -> u64 {
-        if self.pair_count() == 0 {
-            return 0;
+    /// Solves the sub-step's contacts (see the module comment). `parallel` says whether the bands
+    /// may be worked on several threads (the caller runs this inside its thread pool); it changes
+    /// no bit of the result.
+    pub fn solve(&mut self, bodies: &mut Bodies, grid: &BroadPhase, inputs: &Inputs<'_>, parallel: bool) -> Outcome {
+        if self.pair_count() == 0 && inputs.near_walls.is_empty() {
+            self.wall_warm.clear();
+            return Outcome { converged: true, ..Default::default() };
         }
         // The parallel solver first copies every ball into slot order and back (O(n)), which a
         // sparse field's few pairs do not pay for: it takes the bands in parallel only when there
         // are at least half as many pairs as balls (a pile has about three per ball, a falling
         // rain one per ten). Both ways give the same bits.
         if parallel && self.pair_count() >= PARALLEL_MIN_PAIRS.max(bodies.len() / 2) {
-            self.solve_parallel(bodies, grid, restitution, dt, iterations)
+            self.solve_parallel(bodies, grid, inputs)
         } else {
-            self.solve_serial(bodies, grid, restitution, dt, iterations)
+            self.solve_serial(bodies, grid, inputs)
         }
     }
 
-    /// The reference order, in place: pair (k, m) is balls (slots[k], slots[m]).
-    fn solve_serial(&self, b: &mut Bodies, grid: &BroadPhase, e: f64, dt: f64, iterations: usize) -> u64 {
+    /// The reference order, in place: the contacts index the balls themselves.
+    fn solve_serial(&mut self, b: &mut Bodies, grid: &BroadPhase, inputs: &Inputs<'_>) -> Outcome {
         let slots = grid.slots();
         let fixed = Fixed { id: &b.id, inverse_mass: &b.inverse_mass, radius: &b.radius };
-        let lists = self.band_pairs.iter().chain(&self.seam_pairs).chain(std::iter::once(&self.big_pairs));
-        let lists: Vec<&Vec<(u32, u32)>> = lists.collect();
-        let mut impulses = 0;
-        for _ in 0..iterations {
-            let mut pass = Tally::default();
-            for list in &lists {
-                pass = pass
-                    + solve_pairs(list, fixed, &mut b.position, &mut b.velocity, e, dt, |k| {
-                        let i = slots[k] as usize;
-                        (i, i)
-                    });
-            }
-            impulses += pass.impulses;
-            if pass.active == 0 {
-                break;
-            }
-        }
-        impulses
+        self.build(fixed, &b.position, &b.velocity, grid, inputs, |k| slots[k] as usize, |i| i);
+        let parts = Parts { bands: &[], seams: &[] };
+        let outcome = self.phases(&mut b.position, &mut b.velocity, fixed, inputs, &parts, &|k| slots[k] as usize);
+        self.keep();
+        outcome
     }
 
-    /// The same passes with the bands (then the seams) on the pool's threads, on a slot-ordered
+    /// The same phases with the bands (then the seams) on the pool's threads, on a slot-ordered
     /// copy of the balls (see the module comment).
-    fn solve_parallel(&mut self, b: &mut Bodies, grid: &BroadPhase, e: f64, dt: f64, iterations: usize) -> u64 {
+    fn solve_parallel(&mut self, b: &mut Bodies, grid: &BroadPhase, inputs: &Inputs<'_>) -> Outcome {
         let slots = grid.slots();
         let n = slots.len();
-        let l = &mut self.local;
+        let mut l = std::mem::take(&mut self.local);
         l.id.resize(n, BallId(0));
         l.inverse_mass.resize(n, 0.0);
         l.radius.resize(n, 0.0);
@@ -177,84 +254,346 @@ impl ContactSolver {
                 let i = slots[k] as usize;
                 (*id, *w, *r, *x, *v) = (b.id[i], b.inverse_mass[i], b.radius[i], b.position[i], b.velocity[i]);
             });
-        let fixed = Fixed { id: &l.id, inverse_mass: &l.inverse_mass, radius: &l.radius };
-        let bands: Vec<Range<usize>> = (0..grid.band_count()).map(|k| grid.band_slots(k)).collect();
-        let seams: Vec<Range<usize>> = (0..self.seam_pairs.len()).map(|k| grid.seam_slots(k)).collect();
-        let mut impulses = 0;
-        for _ in 0..iterations {
-            let mut pass = Tally::default();
-            for (runs, lists) in [(&bands, &self.band_pairs), (&seams, &self.seam_pairs)] {
-                let parts = split_runs(&mut l.position, &mut l.velocity, runs);
-                pass = pass
-                    + parts
-                        .into_par_iter()
-                        .zip(lists.par_iter())
-                        .map(|((base, x, v), list)| solve_pairs(list, fixed, x, v, e, dt, |k| (k, k - base)))
-                        .reduce(Tally::default, |a, c| a + c);
-            }
-            pass = pass + solve_pairs(&self.big_pairs, fixed, &mut l.position, &mut l.velocity, e, dt, |k| (k, k));
-            impulses += pass.impulses;
-            if pass.active == 0 {
-                break;
-            }
-        }
-        // Scatter (each task writes its own balls; the copy is only read).
         let ball_slot = grid.ball_slots();
+        let fixed = Fixed { id: &l.id, inverse_mass: &l.inverse_mass, radius: &l.radius };
+        self.build(fixed, &l.position, &l.velocity, grid, inputs, |k| k, |i| ball_slot[i] as usize);
+        let bands: Vec<Range<usize>> = (0..grid.band_count()).map(|k| grid.band_slots(k)).collect();
+        let seams: Vec<Range<usize>> = (0..grid.band_count().saturating_sub(1)).map(|k| grid.seam_slots(k)).collect();
+        let parts = Parts { bands: &bands, seams: &seams };
+        let outcome = self.phases(&mut l.position, &mut l.velocity, fixed, inputs, &parts, &|k| k);
+        self.keep();
+        // Scatter (each task writes its own balls; the copy is only read).
         let (lx, lv) = (&l.position, &l.velocity);
         b.position.par_iter_mut().zip(&mut b.velocity).enumerate().for_each(|(i, (x, v))| {
             let k = ball_slot[i] as usize;
             (*x, *v) = (lx[k], lv[k]);
         });
-        impulses
+        self.local = l;
+        outcome
+    }
+
+    /// Builds the sub-step's contact lists from the candidates and the balls near a wall.
+    /// `index(slot)` is a slot's index into the working arrays, `working(ball)` a ball's.
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        &mut self,
+        fixed: Fixed<'_>,
+        x: &[DVec2],
+        v: &[DVec2],
+        grid: &BroadPhase,
+        inputs: &Inputs<'_>,
+        index: impl Fn(usize) -> usize + Sync,
+        working: impl Fn(usize) -> usize + Sync,
+    ) {
+        let bands = self.band_pairs.len();
+        let seams = self.seam_pairs.len();
+        self.lists.resize_with(bands + seams + 1, Vec::new);
+        let key_index = inputs.key.map(&working);
+        self.key_working = key_index;
+        let acceleration =
+            |i: usize| if Some(i) == key_index { inputs.gravity + inputs.key_acceleration } else { inputs.gravity };
+        let body =
+            |i: usize| (i as u32, fixed.id[i], x[i], v[i], acceleration(i), fixed.inverse_mass[i], fixed.radius[i]);
+        let (span, e) = (inputs.span, inputs.restitution);
+        // Walls first, so that a pass carries the floor's support up the pile at once (the pairs
+        // of a band come bottom row first). Each ball near a wall gets its contacts in its own
+        // band's list (or the big balls').
+        for list in self.lists.iter_mut() {
+            list.clear();
+        }
+        self.band_start.clear();
+        self.band_start.extend((0..bands).map(|k| grid.band_slots(k).start));
+        self.band_start.push(grid.big_slots().start);
+        let slot_of = grid.ball_slots();
+        let mut warm = self.wall_warm.iter().peekable();
+        for &ball in inputs.near_walls {
+            let i = working(ball as usize);
+            let slot = slot_of[ball as usize] as usize;
+            let list = if slot >= self.band_start[bands] {
+                bands + seams
+            } else {
+                self.band_start[..bands].partition_point(|&s| s <= slot).saturating_sub(1)
+            };
+            let (_, _, xi, vi, ai, wi, ri) = body(i);
+            for (axis, wall) in nearer_walls(xi, inputs.field).into_iter().enumerate() {
+                while warm.peek().is_some_and(|&&(bw, ax, _)| (bw, ax) < (ball, axis as u8)) {
+                    warm.next();
+                }
+                let impulse = match warm.peek() {
+                    Some(&&(bw, ax, j)) if (bw, ax) == (ball, axis as u8) => j,
+                    _ => 0.0,
+                };
+                if let Some(mut c) = wall_contact((i as u32, xi, vi, ai, wi, ri), wall, inputs.field, span) {
+                    c.impulse = impulse;
+                    c.key = ball * 2 + axis as u32;
+                    self.lists[list].push(c);
+                }
+            }
+        }
+        let fill = |pairs: &mut Vec<Candidate>, list: &mut Vec<Contact>| {
+            for (n, p) in pairs.iter_mut().enumerate() {
+                let (i, j) = (index(p.k as usize), index(p.m as usize));
+                p.listed = false;
+                if let Some(mut c) = pair_contact(body(i), body(j), span, e) {
+                    c.impulse = p.impulse;
+                    c.key = n as u32;
+                    list.push(c);
+                    p.listed = true;
+                }
+                p.impulse = 0.0;
+            }
+        };
+        let many = bands > 1 && rayon::current_thread_index().is_some();
+        let (band_lists, rest) = self.lists.split_at_mut(bands);
+        let (seam_lists, big_list) = rest.split_at_mut(seams);
+        if many {
+            self.band_pairs.par_iter_mut().zip(band_lists.par_iter_mut()).for_each(|(p, l)| fill(p, l));
+            self.seam_pairs.par_iter_mut().zip(seam_lists.par_iter_mut()).for_each(|(p, l)| fill(p, l));
+        } else {
+            self.band_pairs.iter_mut().zip(band_lists.iter_mut()).for_each(|(p, l)| fill(p, l));
+            self.seam_pairs.iter_mut().zip(seam_lists.iter_mut()).for_each(|(p, l)| fill(p, l));
+        }
+        fill(&mut self.big_pairs, &mut big_list[0]);
+    }
+
+    /// Adds the contacts this sub-step's impacts made: candidate pairs with a struck ball that
+    /// had no contact, now touching (see [`MAX_REDETECTIONS`]). Returns how many were added.
+    fn redetect(
+        &mut self,
+        x: &[DVec2],
+        v: &[DVec2],
+        fixed: Fixed<'_>,
+        inputs: &Inputs<'_>,
+        index: &dyn Fn(usize) -> usize,
+    ) -> u64 {
+        let (bands, seams) = (self.band_pairs.len(), self.seam_pairs.len());
+        let key = self.key_working;
+        let acceleration =
+            |i: usize| if Some(i) == key { inputs.gravity + inputs.key_acceleration } else { inputs.gravity };
+        let body =
+            |i: usize| (i as u32, fixed.id[i], x[i], v[i], acceleration(i), fixed.inverse_mass[i], fixed.radius[i]);
+        let impact = &self.impact;
+        let mut added = 0;
+        let groups =
+            self.band_pairs.iter_mut().chain(self.seam_pairs.iter_mut()).chain(std::iter::once(&mut self.big_pairs));
+        for (l, pairs) in groups.enumerate() {
+            debug_assert!(l <= bands + seams);
+            for (n, p) in pairs.iter_mut().enumerate() {
+                if p.listed {
+                    continue;
+                }
+                let (i, j) = (index(p.k as usize), index(p.m as usize));
+                if !(impact.struck(i) || impact.struck(j)) {
+                    continue;
+                }
+                if let Some(mut c) = pair_contact(body(i), body(j), inputs.span, inputs.restitution) {
+                    c.key = n as u32;
+                    c.late = true;
+                    self.lists[l].push(c);
+                    p.listed = true;
+                    added += 1;
+                }
+            }
+        }
+        added
+    }
+
+    /// Writes the resting impulses back to the candidates and the wall memory.
+    fn keep(&mut self) {
+        let bands = self.band_pairs.len();
+        let seams = self.seam_pairs.len();
+        self.wall_warm_next.clear();
+        for (l, list) in self.lists.iter().enumerate() {
+            let pairs = if l < bands {
+                &mut self.band_pairs[l]
+            } else if l < bands + seams {
+                &mut self.seam_pairs[l - bands]
+            } else {
+                &mut self.big_pairs
+            };
+            for c in list {
+                if !c.active {
+                    continue;
+                }
+                // An active contact that carried nothing is kept too, with the mark (see
+                // `RESTED`): the next span knows it rested.
+                let impulse = c.impulse.max(RESTED);
+                if c.b == WALL {
+                    self.wall_warm_next.push((c.key / 2, (c.key % 2) as u8, impulse));
+                } else {
+                    pairs[c.key as usize].impulse = impulse;
+                }
+            }
+        }
+        self.wall_warm_next.sort_unstable_by_key(|&(b, a, _)| (b, a));
+        std::mem::swap(&mut self.wall_warm, &mut self.wall_warm_next);
+    }
+
+    /// The three phases over the lists (in parallel by `parts` when it has bands).
+    fn phases(
+        &mut self,
+        x: &mut [DVec2],
+        v: &mut [DVec2],
+        fixed: Fixed<'_>,
+        inputs: &Inputs<'_>,
+        parts: &Parts<'_>,
+        index: &dyn Fn(usize) -> usize,
+    ) -> Outcome {
+        let mut outcome = Outcome { converged: true, ..Default::default() };
+        for list in &self.lists {
+            outcome.wall_contacts += list.iter().filter(|c| c.b == WALL && c.tau >= 0.0).count() as u64;
+        }
+        let mut impacts = impact_phase(&mut self.lists, x, v, inputs.tolerances.impact, true, &mut self.impact);
+        for _ in 0..MAX_REDETECTIONS {
+            if self.redetect(x, v, fixed, inputs, index) == 0 {
+                break;
+            }
+            let more = impact_phase(&mut self.lists, x, v, inputs.tolerances.impact, false, &mut self.impact);
+            impacts.rounds += more.rounds;
+            impacts.converged &= more.converged;
+        }
+        outcome.converged &= impacts.converged;
+        outcome.rounds = impacts.rounds;
+        for list in &self.lists {
+            outcome.impacts += list.iter().filter(|c| c.b != WALL && c.impact > 0.0).count() as u64;
+        }
+        let ids = fixed.id;
+        let (span, drift, reach_gap) = (inputs.span, inputs.drift, inputs.tolerances.reach_gap);
+        let slop = inputs.tolerances.slop;
+        sweep(&mut self.lists, x, v, parts, |list, x, v, base| {
+            resting_begin(list, x, v, base, &ids[base..], span, drift, reach_gap);
+            (0.0, WallImpulses::default())
+        });
+        sweep(&mut self.lists, x, v, parts, |list, _, v, base| {
+            resting_warm_start(list, v, base);
+            (0.0, WallImpulses::default())
+        });
+        outcome.resting = self.lists.iter().flatten().filter(|c| c.active).count() as u64;
+        if outcome.resting > 0 {
+            let mut passes: u32 = 0;
+            loop {
+                let backward = passes % 2 == 1;
+                let (change, _) = sweep_in(&mut self.lists, x, v, parts, backward, |list, _, v, base| {
+                    (resting_pass(list, v, base, backward), WallImpulses::default())
+                });
+                passes += 1;
+                outcome.resting_passes = passes;
+                if change <= inputs.tolerances.resting {
+                    break;
+                }
+                if passes == MAX_RESTING_PASSES {
+                    outcome.converged = false;
+                    break;
+                }
+            }
+        }
+        let (_, walls) = sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
+            let mut walls = WallImpulses::default();
+            resting_end(list, x, base, span, drift, &mut walls);
+            (0.0, walls)
+        });
+        outcome.walls = walls;
+        let mut passes = 0;
+        loop {
+            let (overlap, _) = sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
+                (position_pass(list, x, base, &ids[base..], slop), WallImpulses::default())
+            });
+            passes += 1;
+            outcome.position_passes = passes;
+            if overlap <= inputs.tolerances.overlap + slop {
+                break;
+            }
+            if passes == MAX_POSITION_PASSES {
+                outcome.converged = false;
+                break;
+            }
+        }
+        sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
+            wall_pass(list, x, base);
+            (0.0, WallImpulses::default())
+        });
+        outcome
     }
 }
 
-impl ContactSolver {
-    /// Orders the pairs for the support pass, lowest first along `down` (the direction of
-    /// gravity). Called when the pairs are found: between two searches the balls move less than
-    /// the broad phase's skin, so the order stays a bottom-to-top order (a pair that turned over
-    /// is skipped by `contact_supported`'s slope test).
-    pub fn order_support(&mut self, b: &Bodies, grid: &BroadPhase, down: DVec2) {
-        let slots = grid.slots();
-        self.support.clear();
-        for list in self.band_pairs.iter().chain(&self.seam_pairs).chain(std::iter::once(&self.big_pairs)) {
-            for &(k, m) in list {
-                let (i, j) = (slots[k as usize], slots[m as usize]);
-                let (hi, hj) = (-down.dot(b.position[i as usize]), -down.dot(b.position[j as usize]));
-                self.support.push(if hi <= hj { (hi, i, j) } else { (hj, j, i) });
-            }
-        }
-        // Every (lower, upper) is a different pair, so the order is total: deterministic.
-        self.support.sort_unstable_by(|a, c| a.0.total_cmp(&c.0).then(a.1.cmp(&c.1)).then(a.2.cmp(&c.2)));
-    }
+/// The slot runs of the bands and seams (empty: work serially in place).
+struct Parts<'a> {
+    bands: &'a [Range<usize>],
+    seams: &'a [Range<usize>],
+}
 
-    /// The support pass (for inelastic piles under gravity; see `contact_supported`): balls
-    /// pushed past a wall are put back on it, then every still-touching pair, in the order of
-    /// [`ContactSolver::order_support`], has its upper ball stopped and lifted on its lower one.
-    /// Serial: each pair depends on the ones below it. Returns the pairs that needed it.
-    pub fn support_pass(&self, b: &mut Bodies, up: DVec2, field: &Field) -> u64 {
-        for i in 0..b.len() {
-            clamp_to_field(&mut b.position[i], &mut b.velocity[i], b.radius[i], field);
-        }
-        let mut touched = 0;
-        for &(_, lower, upper) in &self.support {
-            let (l, u) = (lower as usize, upper as usize);
-            let body = |k: usize| ContactBody {
-                id: b.id[k],
-                position: b.position[k],
-                velocity: b.velocity[k],
-                inverse_mass: b.inverse_mass[k],
-                radius: b.radius[k],
-            };
-            if let Some((dv, shift)) = contact_supported(&body(l), &body(u), up) {
-                b.velocity[u] += dv;
-                b.position[u] += shift;
-                clamp_to_field(&mut b.position[u], &mut b.velocity[u], b.radius[u], field);
-                touched += 1;
+/// Runs `f(list, x, v, base)` over every list in the fixed order — bands, seams, big balls —
+/// in parallel by band and by seam when `parts` has them, and combines the results: the largest
+/// of the numbers and the wall impulses summed in list order (the same bits on any number of
+/// threads).
+fn sweep<F>(
+    lists: &mut [Vec<Contact>],
+    x: &mut [DVec2],
+    v: &mut [DVec2],
+    parts: &Parts<'_>,
+    f: F,
+) -> (f64, WallImpulses)
+where
+    F: Fn(&mut [Contact], &mut [DVec2], &mut [DVec2], usize) -> (f64, WallImpulses) + Sync + Send,
+{
+    sweep_in(lists, x, v, parts, false, f)
+}
+
+/// [`sweep`], or with `backward` the whole order reversed: big balls, seams, bands (each list's
+/// own reversal is `f`'s business). Bands still run at the same time, then seams.
+fn sweep_in<F>(
+    lists: &mut [Vec<Contact>],
+    x: &mut [DVec2],
+    v: &mut [DVec2],
+    parts: &Parts<'_>,
+    backward: bool,
+    f: F,
+) -> (f64, WallImpulses)
+where
+    F: Fn(&mut [Contact], &mut [DVec2], &mut [DVec2], usize) -> (f64, WallImpulses) + Sync + Send,
+{
+    let combine = |(a, mut wa): (f64, WallImpulses), (b, wb): (f64, WallImpulses)| {
+        wa.add_all(&wb);
+        (a.max(b), wa)
+    };
+    if parts.bands.is_empty() {
+        let mut total = (0.0, WallImpulses::default());
+        if backward {
+            for list in lists.iter_mut().rev() {
+                total = combine(total, f(list, x, v, 0));
+            }
+        } else {
+            for list in lists.iter_mut() {
+                total = combine(total, f(list, x, v, 0));
             }
         }
-        touched
+        return total;
     }
+    let (bands, rest) = lists.split_at_mut(parts.bands.len());
+    let (seams, big) = rest.split_at_mut(parts.seams.len());
+    let mut total = (0.0, WallImpulses::default());
+    if backward {
+        total = combine(total, f(&mut big[0], x, v, 0));
+    }
+    let groups = if backward {
+        [(parts.seams, seams), (parts.bands, bands)]
+    } else {
+        [(parts.bands, bands), (parts.seams, seams)]
+    };
+    for (runs, lists) in groups {
+        let split = split_runs(x, v, runs);
+        let results: Vec<(f64, WallImpulses)> =
+            split.into_par_iter().zip(lists.par_iter_mut()).map(|((base, x, v), list)| f(list, x, v, base)).collect();
+        // Combined in list order: the same sums on any number of threads (only maxima and wall
+        // impulses are combined, and no wall impulse is taken in a backward pass).
+        for r in results {
+            total = combine(total, r);
+        }
+    }
+    if !backward {
+        total = combine(total, f(&mut big[0], x, v, 0));
+    }
+    total
 }
 
 /// Splits the two slot-ordered arrays into the disjoint, increasing runs given, returning each
@@ -276,39 +615,4 @@ fn split_runs<'a>(
         (x, v, at) = (rest_x, rest_v, run.end);
     }
     parts
-}
-
-/// One pass over `pairs`. `index(k)` maps a slot to (index into `fixed`, index into `x`/`v`).
-#[inline]
-fn solve_pairs(
-    pairs: &[(u32, u32)],
-    fixed: Fixed<'_>,
-    x: &mut [DVec2],
-    v: &mut [DVec2],
-    e: f64,
-    dt: f64,
-    index: impl Fn(usize) -> (usize, usize),
-) -> Tally {
-    let mut tally = Tally::default();
-    for &(k, m) in pairs {
-        let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
-        let body = |f: usize, s: usize| ContactBody {
-            id: fixed.id[f],
-            position: x[s],
-            velocity: v[s],
-            inverse_mass: fixed.inverse_mass[f],
-            radius: fixed.radius[f],
-        };
-        if let Some(c) = contact_ball_ball(&body(fi, i), &body(fj, j), e, dt) {
-            if c.impulse > 0.0 {
-                v[i] += c.velocity_change_a;
-                v[j] += c.velocity_change_b;
-                tally.impulses += 1;
-            }
-            x[i] += c.shift_a;
-            x[j] += c.shift_b;
-            tally.active += 1;
-        }
-    }
-    tally
 }

@@ -72,57 +72,37 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     }
     let dist = dist2.sqrt();
     // Below a billionth of the contact distance the direction of d is noise: use a fixed normal.
-    let normal = if dist > 1e-9 * reach { d / dist } else { coincident_normal(a.id, b.id) };
+    let mut normal = if dist > 1e-9 * reach { d / dist } else { coincident_normal(a.id, b.id) };
     let penetration = reach - dist;
     let w = a.inverse_mass + b.inverse_mass;
-    let v_rel = (b.velocity - a.velocity).dot(normal);
+    let u = b.velocity - a.velocity;
+    // A pair that approached into the overlap during the last `dt` is struck where it touched:
+    // the instant solves |d − u·s| = R going back s (the larger root; uniform forces leave the
+    // relative motion straight), and the normal is taken there, so an oblique collision comes
+    // out as the exact one does.
+    let (uu, du) = (u.length_squared(), d.dot(u));
+    let disc = du * du - uu * (dist2 - reach * reach);
+    if dt > 0.0 && du < 0.0 && uu > 0.0 && disc >= 0.0 {
+        let s = (du + disc.sqrt()) / uu;
+        let at = d - u * s;
+        let at_len = at.length();
+        if s >= 0.0 && s <= dt && at_len > 1e-9 * reach {
+            normal = at / at_len;
+        }
+    }
+    let v_rel = u.dot(normal);
     let impulse = if v_rel < 0.0 { -(1.0 + restitution) * v_rel / w } else { 0.0 };
     let velocity_change_a = -impulse * a.inverse_mass * normal;
     let velocity_change_b = impulse * b.inverse_mass * normal;
     let (shift_a, shift_b) = if v_rel < 0.0 && penetration <= -v_rel * dt {
-        let tau = penetration / -v_rel;
+        // The time since contact along the relative motion (exact for head-on, where it is
+        // penetration / |v_rel|).
+        let tau = if uu > 0.0 && disc >= 0.0 { ((du + disc.sqrt()) / uu).max(0.0) } else { penetration / -v_rel };
         (velocity_change_a * tau, velocity_change_b * tau)
     } else {
         (-penetration * (a.inverse_mass / w) * normal, penetration * (b.inverse_mass / w) * normal)
     };
     Some(BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b })
-}
-
-/// Gap (relative to the contact distance) within which [`contact_supported`] still counts two
-/// balls as touching.
-pub const SUPPORT_MARGIN: f64 = 1e-6;
-
-/// A ball rests on another when the line of centres is within 60° of straight up (cos 60° = ½).
-pub const MIN_SUPPORT_SLOPE: f64 = 0.5;
-
-/// The response of `upper` resting on `support` when the support is treated as immovable (the
-/// "shock propagation" of Guendelman, Bridson and Fedkiw 2003): if they approach, the upper
-/// ball's normal velocity is set to the support's (a perfectly inelastic, one-sided impulse), and
-/// it is moved out of the overlap by the whole penetration. Returns the upper ball's
-/// `(velocity change, shift)`, or `None` when they do not touch.
-///
-/// Used for one final pass over a pile's contacts, bottom to top along gravity, after the
-/// ordinary passes: it carries the floor's support up through every layer in one sweep, which
-/// sequential impulses alone need many passes for (see the lockstep contact solver).
-#[inline]
-pub fn contact_supported(support: &ContactBody, upper: &ContactBody, up: DVec2) -> Option<(DVec2, DVec2)> {
-    let d = upper.position - support.position;
-    let reach = support.radius + upper.radius;
-    let dist2 = d.length_squared();
-    // Balls the ordinary passes left just touching (to rounding) still carry the support.
-    let margin = reach * (1.0 + SUPPORT_MARGIN);
-    if dist2 >= margin * margin {
-        return None;
-    }
-    let dist = dist2.sqrt();
-    let normal = if dist > 1e-9 * reach { d / dist } else { coincident_normal(support.id, upper.id) };
-    if normal.dot(up) < MIN_SUPPORT_SLOPE {
-        // Side by side, not one on the other: the ordinary passes' business.
-        return None;
-    }
-    let v_rel = (upper.velocity - support.velocity).dot(normal);
-    let dv = if v_rel < 0.0 { -v_rel * normal } else { DVec2::ZERO };
-    Some((dv, (reach - dist).max(0.0) * normal))
 }
 
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's
@@ -170,26 +150,6 @@ fn bounce(s: f64, u: f64, alpha: f64, e: f64, mass: f64) -> (f64, f64, f64) {
         }
     }
     (s_new, u_new, impulse)
-}
-
-/// Puts a ball that a contact pushed past a wall back on it, and stops its motion into that wall
-/// (the wall is immovable, the contact inelastic). Returns whether it was past a wall.
-#[inline]
-pub fn clamp_to_field(position: &mut DVec2, velocity: &mut DVec2, radius: f64, field: &Field) -> bool {
-    let (lo_x, hi_x) = (radius, (field.width - radius).max(radius));
-    let (lo_y, hi_y) = (radius, (field.height - radius).max(radius));
-    let mut past = false;
-    if position.x < lo_x {
-        (position.x, velocity.x, past) = (lo_x, velocity.x.max(0.0), true);
-    } else if position.x > hi_x {
-        (position.x, velocity.x, past) = (hi_x, velocity.x.min(0.0), true);
-    }
-    if position.y < lo_y {
-        (position.y, velocity.y, past) = (lo_y, velocity.y.max(0.0), true);
-    } else if position.y > hi_y {
-        (position.y, velocity.y, past) = (hi_y, velocity.y.min(0.0), true);
-    }
-    past
 }
 
 /// Keeps a ball inside the field: a ball past a wall is brought back and, if it was moving into

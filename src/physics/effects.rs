@@ -37,9 +37,20 @@ impl Default for Gravity {
 #[serde(tag = "model", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Drag {
     /// `F = −½·ρ·C_d·A·|v|·v`, A = π(d/2)²: fast balls in air.
-    Quadratic { rho: f64, cd: f64 },
+    Quadratic {
+        /// Density ρ of the medium, kg/m³ (a scene's must be positive; air is
+        /// [`AIR_DENSITY`]).
+        rho: f64,
+        /// Drag coefficient C_d, dimensionless (a scene's must be positive; a sphere's is
+        /// [`SPHERE_DRAG_COEFFICIENT`]).
+        cd: f64,
+    },
     /// Stokes drag `F = −3·π·μ·d·v`: slow, small balls in a viscous fluid.
-    Linear { mu: f64 },
+    Linear {
+        /// Dynamic viscosity μ of the fluid, Pa·s (a scene's must be positive; air's is
+        /// [`AIR_VISCOSITY`]).
+        mu: f64,
+    },
 }
 
 impl Default for Drag {
@@ -90,9 +101,13 @@ impl Default for Collisions {
 /// Which effects are on. `None` is off and costs nothing.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Effects {
+    /// Uniform gravity on every ball.
     pub gravity: Option<Gravity>,
+    /// Air (or fluid) drag on every ball.
     pub drag: Option<Drag>,
+    /// Mutual attraction between every pair of balls.
     pub attraction: Option<Attraction>,
+    /// Ball–ball collisions. Off, balls pass through each other; the walls act either way.
     pub collisions: Option<Collisions>,
 }
 

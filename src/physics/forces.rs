@@ -13,23 +13,32 @@ use super::effects::{
 /// Per-ball constants that forces need, as parallel slices indexed like the state.
 #[derive(Clone, Copy, Debug)]
 pub struct BodyProps<'a> {
+    /// Each ball's mass, kg (positive).
     pub mass: &'a [f64],
+    /// Each ball's `1/mass`, 1/kg: kept beside the mass so the passes multiply instead of divide.
     pub inverse_mass: &'a [f64],
+    /// Each ball's diameter, m (positive).
     pub diameter: &'a [f64],
 }
 
 /// One ball's constants, for the passes evaluated on one ball alone ([`Forces::on_ball`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BallProps {
+    /// Mass, kg (positive).
     pub mass: f64,
+    /// `1/mass`, 1/kg.
     pub inverse_mass: f64,
+    /// Diameter, m (positive).
     pub diameter: f64,
 }
 
 /// A force applied to one ball, e.g. the player's pull on the key ball.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointForce {
+    /// The ball's index in the state the force passes run on; it must be in range (the passes
+    /// index with it and panic otherwise).
     pub index: usize,
+    /// The force, N.
     pub force: DVec2,
 }
 
@@ -234,6 +243,9 @@ pub struct Forces {
 }
 
 impl Forces {
+    /// The passes of the effects that are on, in their fixed order (gravity, drag, attraction;
+    /// collisions are not a force pass), with no drag rate limit and attraction summed the way
+    /// the ball count chooses.
     pub fn new(effects: &Effects) -> Self {
         let mut passes = PassList::default();
         if let Some(g) = effects.gravity {

@@ -1,7 +1,8 @@
 //! Drawing a snapshot of the field with wgpu, into a window's surface or an offscreen texture
-//! (DESIGN.md, "render/"). One path, [`Renderer::render`], serves both: they differ only in where
-//! the `TextureView` comes from. The renderer reads its [`FrameSnapshot`]; it never changes the
-//! simulation.
+//! (DESIGN.md, "render/"). One path serves both: [`Renderer::encode`] records the drawing into a
+//! `TextureView` (the window adds its panel on the same encoder), and [`Renderer::render`] is that
+//! path submitted at once (the offscreen frames); they differ only in where the view comes from.
+//! The renderer reads its [`FrameSnapshot`]; it never changes the simulation.
 //!
 //! Balls are discs drawn by `shaders/balls.wgsl` (a signed distance with a one-pixel anti-aliased
 //! edge), the field, the walls and the overlays thick segments from `shaders/segments.wgsl`.

@@ -1,4 +1,5 @@
-//! The renderer: one `render(view, snapshot)` path for the window and the offscreen target.
+//! The renderer: one drawing of a snapshot into a view, [`Renderer::encode`], for the window and
+//! the offscreen target ([`Renderer::render`] is it, submitted at once).
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec2;

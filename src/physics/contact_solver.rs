@@ -1,0 +1,1054 @@
+//! The contact solver: every ball–ball and ball–wall contact of one span of time, solved together.
+//!
+//! **API.** The caller integrates the balls over a span `h` as free motion (forces on, contacts
+//! off), then hands the solver the end-of-span state: [`SolverBall`]s (position, velocity, the
+//! ball's uniform acceleration over the span, inverse mass, radius, id), candidate pairs (any
+//! superset of the pairs that touch during the span), and [`ContactParams`] (ball restitution,
+//! the field with its walls and their restitution, `h`, and the integrator's [`resting_drift`]).
+//! [`ContactSolver::solve`] returns a [`SolveTally`] (with the impulse each wall took) and leaves
+//! one [`BallResponse`] per ball — a velocity change and a position change to add to its
+//! end-of-span state. Walls are found by the solver itself. The solver keeps only scratch memory
+//! and the last call's impulses, keyed by ball ids, to warm-start the next call. The lockstep
+//! engine drives the same phases band by band (`src/lockstep/contact_solver.rs`) through the
+//! per-contact functions below ([`pair_contact`], [`wall_contact`], [`impact_phase`],
+//! [`resting_begin`], [`resting_pass`], [`resting_end`], [`position_pass`]), so both engines run
+//! one physics.
+//!
+//! **The model.** Balls are rigid; a contact is a unilateral constraint along the line of centres
+//! (walls: infinite mass). Three phases:
+//!
+//! 1. **Impacts.** The contact instant is found by rewinding the relative motion, which uniform
+//!    forces leave straight (a quadratic; walls along the ball's parabola). A contact approaching
+//!    at its instant is struck with Newton's restitution on that approach speed, along the normal
+//!    *at that instant*, and replayed from it (each ball moves on by `Δv·τ`): a binary collision
+//!    is exact at any angle and loses exactly `(1 − e²)·½·μ·v_n²`. Impacts go in *rounds*: a
+//!    round takes every contact approaching at that moment and solves them simultaneously (a
+//!    linear complementarity problem with targets `v_n⁺ ≥ −e·v_n⁻`, by Jacobi iteration with
+//!    mass splitting, so a mirror image gives the mirror result); contacts that the round's
+//!    impulses set approaching are struck in the next round. That is the sequential-impact model:
+//!    a ball dropped on a resting ball, or Newton's cradle of touching balls, comes out as the
+//!    chain of binary impacts does; simultaneous impacts stay simultaneous. A struck ball that
+//!    meets a ball it did not meet in free motion gets that contact in the same span
+//!    ([`MAX_REDETECTIONS`]). Three rules keep a resting pile from bouncing itself awake (each
+//!    only for e < 1, and each about motions of a few cm/s under gravity):
+//!    - a contact that rested in the last span ([`RESTED`]) is not struck by the approach it
+//!      brings in (the resting solve's residue), only by one this span's impacts give it;
+//!    - such a contact's impulse acts at the end of the span (no replay into its neighbours);
+//!    - an impact slower than a few cm/s keeps only part of its restitution ([`settling`]): a
+//!      bouncing ball comes to rest once its bounces are about 2 mm high.
+//! 2. **Resting contacts.** Every contact still touching at the end gets an inelastic
+//!    non-penetration impulse on its end velocity (projected Gauss–Seidel, warm-started from the
+//!    last span, iterated until converged). Such an impulse stands for a steady force over the
+//!    span, so it also moves the balls as the integrator would have (`drift`): a resting pile
+//!    stays put to rounding and its floor carries exactly its weight.
+//! 3. **Positions.** Overlaps left over are pushed apart, split by inverse mass, walls immovable,
+//!    without touching any velocity.
+//!
+//! Every ball–ball impulse is equal and opposite, so contacts never change the balls' total
+//! momentum; only walls exchange momentum with the field, and every wall impulse is tallied.
+
+use std::collections::HashMap;
+
+use glam::DVec2;
+
+use super::ball::BallId;
+use super::contact::coincident_normal;
+use super::field::{Field, Wall, WallImpulses};
+use super::integrator::Integrator;
+
+/// Gap, relative to the contact distance, within which two balls (or a ball and a wall) still
+/// count as touching: the solver leaves resting contacts touching to rounding.
+pub const TOUCH_MARGIN: f64 = 1e-6;
+/// Most impact rounds in one span (a struck pile cascades; what is left is absorbed by the
+/// resting phase and counted in [`SolveTally::converged`]).
+pub const MAX_IMPACT_ROUNDS: u32 = 1000;
+/// Most Jacobi iterations of one impact round.
+pub const MAX_ROUND_ITERATIONS: u32 = 1000;
+/// Most times one span looks again for contacts its impacts made: a struck ball, moved on from its
+/// instant of impact, may meet a ball it did not meet in free motion; that contact is found, with
+/// its own instant, and struck in the same span (each time is one more impact phase).
+pub const MAX_REDETECTIONS: u32 = 8;
+/// Most Gauss–Seidel passes of the resting phase.
+pub const MAX_RESTING_PASSES: u32 = 50;
+/// Most passes of the position phase.
+pub const MAX_POSITION_PASSES: u32 = 1000;
+/// The warm-start impulse a resting contact that carried nothing hands on: the smallest positive
+/// f64, so small that applying it changes no velocity, and positive, so that the next span knows
+/// the contact rested in this one (see [`impact_phase`]: what such a contact brings into the next
+/// span is the resting solve's residue, not an impact).
+pub const RESTED: f64 = f64::MIN_POSITIVE;
+/// `b` of a wall contact.
+pub const WALL: u32 = u32::MAX;
+/// A contact's `tau` when it did not touch during the span.
+pub const NEVER: f64 = -1.0;
+
+/// The fraction of a steady force's velocity change over a step that an integrator also puts
+/// into that step's drift: 1 for semi-implicit Euler (`x += v_new·h`), ½ for leapfrog, RK4 and
+/// Yoshida (exact for a constant force: `x += v₀·h + ½·a·h²`), 0 for explicit Euler
+/// (`x += v_old·h`). A resting contact's impulse moves the balls by this much of `Δv·h`, so a
+/// ball resting on the floor ends where it started.
+pub fn resting_drift(integrator: Integrator) -> f64 {
+    match integrator {
+        Integrator::ExplicitEuler => 0.0,
+        Integrator::SemiImplicitEuler => 1.0,
+        Integrator::Leapfrog | Integrator::Rk4 | Integrator::Yoshida4 => 0.5,
+    }
+}
+
+/// One ball as the solver sees it: its state at the end of the span, after free motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverBall {
+    /// Stable id: keys the warm start between calls.
+    pub id: BallId,
+    /// Position at the end of the span (free motion applied), m.
+    pub position: DVec2,
+    /// Velocity at the end of the span, m/s.
+    pub velocity: DVec2,
+    /// The ball's uniform acceleration over the span (gravity, plus the pull on the key ball),
+    /// m/s²: it rewinds a wall contact along the ball's parabola and tells a resting contact
+    /// (pressed by it) from an impact. Zero if unknown.
+    pub acceleration: DVec2,
+    /// 1/kg (> 0; a ball with a non-positive or non-finite one is skipped).
+    pub inverse_mass: f64,
+    /// Radius, m (> 0).
+    pub radius: f64,
+}
+
+/// What the solver needs besides the balls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// Coefficient of restitution between balls, in [0, 1].
+    pub restitution: f64,
+    /// The walls, and their restitution (`field.restitution`).
+    pub field: Field,
+    /// How long the free motion ran, s.
+    pub span: f64,
+    /// The integrator's [`resting_drift`].
+    pub drift: f64,
+}
+
+/// The solver's answer for one ball: add both to its end-of-span state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BallResponse {
+    /// Add to the ball's end-of-span velocity, m/s.
+    pub velocity_change: DVec2,
+    /// Add to the ball's end-of-span position, m.
+    pub shift: DVec2,
+    /// Seconds before the end of the span of the ball's earliest impact (the span if it only
+    /// rested, 0 if nothing touched it).
+    pub instant: f64,
+}
+
+/// What one call did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveTally {
+    /// Impulse each wall took, N·s.
+    pub walls: WallImpulses,
+    /// Contacts (pairs and walls) touching during the span.
+    pub contacts: u64,
+    /// Contacts struck with restitution.
+    pub impacts: u64,
+    /// Contacts still touching at the end (the resting phase's).
+    pub resting: u64,
+    /// Impact rounds (each: the contacts approaching at that moment, solved together).
+    pub impact_rounds: u32,
+    /// Gauss–Seidel passes of the resting phase.
+    pub resting_passes: u32,
+    /// Passes of the position phase.
+    pub position_passes: u32,
+    /// False when an iteration cap was reached (the state is still valid, only less exact).
+    pub converged: bool,
+}
+
+/// One contact of the span: a pair (`b` a ball) or a ball against a wall (`b` = [`WALL`]).
+/// `a` and `b` index the caller's working arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    /// Index of ball a in the working arrays.
+    pub a: u32,
+    /// Index of ball b, or [`WALL`].
+    pub b: u32,
+    /// Unit normal from a towards b (for a wall: out of the field). Set at the instant of contact
+    /// for the impact phase, then at the end-of-span geometry for the resting phase.
+    pub normal: DVec2,
+    /// Contact distance: the sum of the radii (for a wall: the ball's radius).
+    pub reach: f64,
+    /// For a wall: its coordinate along `normal` (the ball touches it when `x·n + r = plane`).
+    pub plane: f64,
+    /// Seconds before the end of the span at which the two first touched (the span if they
+    /// touched at its start already); [`NEVER`] if they did not touch during it.
+    pub tau: f64,
+    /// Touching since the start of the span (`tau` is the span).
+    pub persistent: bool,
+    /// Found after the span's first impacts (see [`MAX_REDETECTIONS`]): its instant is its own
+    /// rewind along the velocities those impacts left, not bounded by theirs.
+    pub late: bool,
+    /// Relative normal velocity at the contact's instant minus that at the end of the span: the
+    /// uniform accelerations act for `tau` after the instant (zero for two balls under gravity
+    /// alone, which drops out of their relative motion).
+    pub bias: f64,
+    /// Inverse mass of ball a, 1/kg.
+    pub inverse_mass_a: f64,
+    /// Inverse mass of ball b, 1/kg (0 for a wall).
+    pub inverse_mass_b: f64,
+    /// Coefficient of restitution of this contact (the balls' or the wall's).
+    pub restitution: f64,
+    /// The resting impulse, N·s: the last span's on entry (warm start), this span's on exit.
+    pub impulse: f64,
+    /// The resting phase's target relative normal velocity (see [`resting_begin`]).
+    pub target: f64,
+    /// The impact impulse of this span, N·s.
+    pub impact: f64,
+    /// Touching at the start of the resting phase.
+    pub active: bool,
+    /// Which wall (for a wall contact).
+    pub wall: Wall,
+    /// The caller's handle (e.g. where to keep the impulse for the next warm start).
+    pub key: u32,
+}
+
+impl Contact {
+    /// Whether b is a wall.
+    pub fn is_wall(&self) -> bool {
+        self.b == WALL
+    }
+}
+
+/// The contact of balls a and b over the span, or `None` if they neither touch during it nor at
+/// its end (within [`TOUCH_MARGIN`]). `(x, v, acc)` are end-of-span position, velocity and
+/// uniform acceleration; `w` inverse mass, `r` radius.
+///
+/// The relative motion over the span is `d(s) = d − u·s` going back `s` from the end (straight:
+/// uniform forces act alike on both). The instant they touched solves `|d − u·s| = R`, the
+/// larger root of `|u|²·s² − 2·(d·u)·s + |d|² − R² = 0`; the normal is taken there.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn pair_contact(
+    (a, ida, xa, va, acc_a, wa, ra): (u32, BallId, DVec2, DVec2, DVec2, f64, f64),
+    (b, idb, xb, vb, acc_b, wb, rb): (u32, BallId, DVec2, DVec2, DVec2, f64, f64),
+    span: f64,
+    restitution: f64,
+) -> Option<Contact> {
+    let d = xb - xa;
+    let reach = ra + rb;
+    let dd = d.length_squared();
+    let margin = reach * (1.0 + TOUCH_MARGIN);
+    let c = dd - reach * reach;
+    let u = vb - va;
+    let uu = u.length_squared();
+    let du = d.dot(u);
+    // Going back, the pair overlaps for s in (s1, s2).
+    let tau = if c < 0.0 {
+        if uu > 0.0 {
+            let s2 = (du + (du * du - uu * c).sqrt()) / uu;
+            s2.min(span)
+        } else {
+            span
+        }
+    } else if du > 0.0 && uu > 0.0 {
+        let disc = du * du - uu * c;
+        // Root pair of the stable form: s1·s2 = c/uu.
+        let s2 = if disc > 0.0 { (du + disc.sqrt()) / uu } else { 0.0 };
+        let s1 = if s2 > 0.0 { c / (uu * s2) } else { f64::INFINITY };
+        if disc > 0.0 && s1 < span { s2.min(span) } else { NEVER }
+    } else {
+        NEVER
+    };
+    let tau = if tau == NEVER && dd < margin * margin {
+        // Touching at the end without having overlapped during the span: resting if they were
+        // touching at its start as well (up to what their relative acceleration moves them over
+        // the span), else they have only just met and the contact's instant is the end.
+        let start_gap = (d - u * span).length() - reach;
+        let slack = (acc_b - acc_a).length() * span * span + TOUCH_MARGIN * reach;
+        if start_gap <= slack { span } else { 0.0 }
+    } else {
+        tau
+    };
+    if tau == NEVER {
+        return None;
+    }
+    let p = d - u * tau;
+    let dist = p.length();
+    let normal = if dist > 1e-9 * reach { p / dist } else { coincident_normal(ida, idb) };
+    let bias = -(acc_b - acc_a).dot(normal) * tau;
+    Some(Contact {
+        a,
+        b,
+        normal,
+        reach,
+        plane: 0.0,
+        tau,
+        persistent: tau == span,
+        late: false,
+        bias,
+        inverse_mass_a: wa,
+        inverse_mass_b: wb,
+        restitution,
+        impulse: 0.0,
+        target: 0.0,
+        impact: 0.0,
+        active: false,
+        wall: Wall::Left,
+        key: 0,
+    })
+}
+
+/// The wall's outward normal and its coordinate along it (a ball of radius r at x touches the
+/// wall when `x·n + r = plane`).
+#[inline]
+pub fn wall_plane(wall: Wall, field: &Field) -> (DVec2, f64) {
+    match wall {
+        Wall::Left => (DVec2::NEG_X, 0.0),
+        Wall::Right => (DVec2::X, field.width),
+        Wall::Bottom => (DVec2::NEG_Y, 0.0),
+        Wall::Top => (DVec2::Y, field.height),
+    }
+}
+
+/// The walls a ball at `x` of radius `r` may meet: the nearer of left and right, the nearer of
+/// bottom and top.
+#[inline]
+pub fn nearer_walls(x: DVec2, field: &Field) -> [Wall; 2] {
+    [
+        if x.x <= field.width - x.x { Wall::Left } else { Wall::Right },
+        if x.y <= field.height - x.y { Wall::Bottom } else { Wall::Top },
+    ]
+}
+
+/// Whether a ball should be checked against the walls: within `near` of one at the end of the
+/// span (`near` covers its travel over the span and what the contacts may push it).
+#[inline]
+pub fn near_a_wall(x: DVec2, r: f64, near: f64, field: &Field) -> bool {
+    x.x - r < near || field.width - x.x - r < near || x.y - r < near || field.height - x.y - r < near
+}
+
+/// The contact of ball a with `wall` over the span, or `None` if it neither crosses the wall
+/// during it nor touches it at the end. The ball's distance to the wall going back `s` from the
+/// end is `gap + v_n·s − ½·α·s²` (`v_n`, `α`: velocity and acceleration into the wall): its root
+/// is the instant of contact, the same rewind as a single wall bounce.
+#[inline]
+pub fn wall_contact(
+    (a, x, v, acc, w, r): (u32, DVec2, DVec2, DVec2, f64, f64),
+    wall: Wall,
+    field: &Field,
+    span: f64,
+) -> Option<Contact> {
+    let (normal, plane) = wall_plane(wall, field);
+    let gap = plane - x.dot(normal) - r;
+    let un = v.dot(normal);
+    let alpha = acc.dot(normal);
+    let tau = if gap < 0.0 {
+        // ½·α·s² − v_n·s − gap = 0 for the smallest s > 0 (stable form; see `contact.rs`'s bounce).
+        let (qa, qb, qc) = (0.5 * alpha, -un, -gap);
+        let disc = qb * qb - 4.0 * qa * qc;
+        let root = if disc >= 0.0 {
+            let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+            let (r1, r2) =
+                (if q != 0.0 { qc / q } else { f64::INFINITY }, if qa != 0.0 { q / qa } else { f64::INFINITY });
+            [r1, r2].into_iter().filter(|s| *s > 0.0).fold(f64::INFINITY, f64::min)
+        } else {
+            f64::INFINITY
+        };
+        root.min(span)
+    } else if gap <= TOUCH_MARGIN * r {
+        span
+    } else {
+        return None;
+    };
+    Some(Contact {
+        a,
+        b: WALL,
+        normal,
+        reach: r,
+        plane,
+        tau,
+        persistent: tau == span,
+        late: false,
+        bias: alpha * tau,
+        inverse_mass_a: w,
+        inverse_mass_b: 0.0,
+        restitution: field.restitution,
+        impulse: 0.0,
+        target: 0.0,
+        impact: 0.0,
+        active: false,
+        wall,
+        key: 0,
+    })
+}
+
+/// How much of its restitution an impact at `approach` (m/s) keeps: none up to four times the
+/// impact threshold (`threshold`, half of what the uniform acceleration adds in a span), all of
+/// it from forty times, linearly between. Under gravity at dt = 1 ms that is a ramp from 2 cm/s to
+/// 20 cm/s: a ball bouncing on the floor comes to rest once it rises less than about 2 mm instead
+/// of bouncing ever lower, and a pile's contacts, which meet again at a few cm/s each time the
+/// position phase moves a ball, do not bounce each other awake. Without uniform forces the
+/// threshold is rounding-small and every impact keeps its restitution.
+#[inline]
+pub fn settling(approach: f64, threshold: f64) -> f64 {
+    ((approach - 4.0 * threshold) / (36.0 * threshold)).clamp(0.0, 1.0)
+}
+
+/// Relative normal velocity of a contact now (negative: approaching).
+#[inline(always)]
+fn normal_velocity(c: &Contact, v: &[DVec2], base: usize) -> f64 {
+    let vb = if c.is_wall() { DVec2::ZERO } else { v[c.b as usize - base] };
+    (vb - v[c.a as usize - base]).dot(c.normal)
+}
+
+/// Applies the impulse `j` along the contact's normal: −j to a, +j to b.
+#[inline(always)]
+fn apply(c: &Contact, j: f64, v: &mut [DVec2], base: usize) {
+    v[c.a as usize - base] -= (j * c.inverse_mass_a) * c.normal;
+    if !c.is_wall() {
+        v[c.b as usize - base] += (j * c.inverse_mass_b) * c.normal;
+    }
+}
+
+/// One contact of the current impact round.
+#[derive(Clone, Copy, Debug, Default)]
+struct Row {
+    list: u32,
+    index: u32,
+    /// Approach target `−e·v_n⁻` and the round's accumulated impulse.
+    target: f64,
+    approach: f64,
+    lambda: f64,
+    delta: f64,
+    /// When the impulse acts, s before the end of the span (see [`impact_phase`]).
+    time: f64,
+}
+
+/// Scratch of the impact phase, per ball of the working arrays (kept to reuse the memory).
+#[derive(Clone, Debug, Default)]
+pub struct ImpactScratch {
+    rows: Vec<Row>,
+    /// Contacts of the current round on each ball.
+    count: Vec<u32>,
+    /// Latest impact instant on each ball so far (s before the end; +∞ if none).
+    latest: Vec<f64>,
+    touched: Vec<u32>,
+    candidates: Vec<(u32, u32)>,
+}
+
+/// What the impact phase did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImpactTally {
+    /// Contacts struck with restitution.
+    pub impacts: u64,
+    /// Impact rounds taken.
+    pub rounds: u32,
+    /// False when a round or the rounds reached their cap.
+    pub converged: bool,
+}
+
+impl ImpactScratch {
+    /// The latest impact instant on ball `i` of the last [`impact_phase`] (s before the end of
+    /// the span), or `None`. Valid until the next call.
+    pub fn instant(&self, i: usize) -> Option<f64> {
+        self.latest.get(i).copied().filter(|t| t.is_finite())
+    }
+
+    /// Whether ball `i` was struck in this span's impacts so far.
+    pub fn struck(&self, i: usize) -> bool {
+        self.latest.get(i).is_some_and(|t| t.is_finite())
+    }
+
+    /// Forgets the instants of the last call (done at the start of the next one).
+    fn reset(&mut self, n: usize) {
+        for &i in &self.touched {
+            self.latest[i as usize] = f64::INFINITY;
+        }
+        self.touched.clear();
+        if self.latest.len() != n {
+            self.latest.clear();
+            self.latest.resize(n, f64::INFINITY);
+            self.count.clear();
+            self.count.resize(n, 0);
+        }
+    }
+}
+
+/// The impact phase over every contact of `lists` (in list order: the same order gives the same
+/// bits). `fresh` starts a span (forgets the instants of the last one); a call that is not
+/// fresh goes on with the span's instants, after contacts the impacts made were added (see
+/// [`MAX_REDETECTIONS`]). `x`, `v` are the working arrays the contacts index (whole, base 0). `impact_threshold`
+/// is the approach speed below which a contact is left to the resting phase (see
+/// [`Tolerances`]).
+///
+/// Each round gathers the contacts approaching at their instant faster than the tolerance and
+/// solves them together: accumulated impulses `λ ≥ 0` with `v_n⁺ ≥ −e·v_n⁻` and complementarity,
+/// by Jacobi sweeps in which each ball's mass is split among its contacts of the round (Tonge et
+/// al. 2012): every contact's update is computed from the same velocities, so the visiting order
+/// does not matter, and the sweeps converge to the simultaneous solution. A round of contacts that
+/// share no ball is solved exactly in one sweep: the binary collision. For e = 1 the converged
+/// round keeps the energy exactly (each struck contact reverses its normal velocity).
+///
+/// An impulse acts at the latest of its contact's instant and the instants of the impacts that
+/// already struck either ball (a contact struck because another impact set it approaching is
+/// struck right after that one), and each ball moves on by `Δv` times that time: the replay.
+pub fn impact_phase(
+    lists: &mut [Vec<Contact>],
+    x: &mut [DVec2],
+    v: &mut [DVec2],
+    impact_threshold: f64,
+    fresh: bool,
+    s: &mut ImpactScratch,
+) -> ImpactTally {
+    if fresh {
+        s.reset(v.len());
+    }
+    let mut tally = ImpactTally { converged: true, ..Default::default() };
+    s.candidates.clear();
+    for (l, list) in lists.iter().enumerate() {
+        for (k, c) in list.iter().enumerate() {
+            if c.tau != NEVER {
+                s.candidates.push((l as u32, k as u32));
+            }
+        }
+    }
+    if s.candidates.is_empty() {
+        return tally;
+    }
+    loop {
+        s.rows.clear();
+        for &(l, k) in &s.candidates {
+            let c = &lists[l as usize][k as usize];
+            let vn = normal_velocity(c, v, 0) + c.bias;
+            // A contact that rested in the last span (its warm impulse is positive, at least
+            // [`RESTED`]) and touches since this one began is not struck by what it brings in:
+            // its approach is what the last span's resting solve left, or the gap it was let
+            // close, which the resting phase absorbs. It is struck when this span's impacts set
+            // it approaching (a later round).
+            // (Elastic contacts keep every approach: e = 1 keeps the energy exactly.)
+            let carried = tally.rounds == 0 && c.persistent && c.impulse > 0.0 && c.restitution < 1.0;
+            if vn < -impact_threshold && !carried {
+                // A contact that touched since the span began is part of a resting cluster: its
+                // impulse acts at the end of the span. Replaying it from the striking impact's
+                // instant would move its balls into neighbours whose contacts rest and are not
+                // struck, an overlap the position phase then pushes out — lifting the pile,
+                // energy that feeds the next impacts (a pile at e = 0.5 never settled so). The
+                // price is a chain through resting contacts placed up to Δv·h off. (Elastic
+                // contacts are replayed: e = 1 keeps the energy, potential included, exactly.)
+                let time = if c.persistent && c.restitution < 1.0 {
+                    0.0
+                } else if c.late {
+                    c.tau
+                } else {
+                    let mut time = c.tau.min(s.latest[c.a as usize]);
+                    if !c.is_wall() {
+                        time = time.min(s.latest[c.b as usize]);
+                    }
+                    time
+                };
+                s.rows.push(Row {
+                    list: l,
+                    index: k,
+                    target: -c.restitution * settling(-vn, impact_threshold) * vn,
+                    approach: -vn,
+                    lambda: 0.0,
+                    delta: 0.0,
+                    time,
+                });
+            }
+        }
+        if s.rows.is_empty() {
+            break;
+        }
+        if tally.rounds == MAX_IMPACT_ROUNDS {
+            tally.converged = false;
+            break;
+        }
+        tally.rounds += 1;
+        let mut shared = false;
+        for r in &s.rows {
+            let c = &lists[r.list as usize][r.index as usize];
+            for i in [c.a, c.b] {
+                if i != WALL {
+                    s.count[i as usize] += 1;
+                    shared |= s.count[i as usize] > 1;
+                }
+            }
+        }
+        let mut scale = 0.0f64;
+        for r in &s.rows {
+            scale = scale.max(r.approach);
+        }
+        // Converged when no sweep changes a relative velocity by more than this.
+        let tolerance = 1e-14 * scale + 1e-3 * impact_threshold;
+        let mut iterations = 0;
+        loop {
+            let mut largest = 0.0f64;
+            for r in s.rows.iter_mut() {
+                let c = &lists[r.list as usize][r.index as usize];
+                let vn = normal_velocity(c, v, 0) + c.bias;
+                let ka = s.count[c.a as usize] as f64;
+                let kb = if c.is_wall() { 0.0 } else { s.count[c.b as usize] as f64 };
+                let split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
+                let lambda = (r.lambda + (r.target - vn) / split).max(0.0);
+                r.delta = lambda - r.lambda;
+                r.lambda = lambda;
+                largest = largest.max(r.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
+            }
+            for r in &s.rows {
+                let c = &lists[r.list as usize][r.index as usize];
+                apply(c, r.delta, v, 0);
+            }
+            iterations += 1;
+            // Without shared balls one sweep is the exact answer.
+            if !shared || largest <= tolerance {
+                break;
+            }
+            if iterations == MAX_ROUND_ITERATIONS {
+                tally.converged = false;
+                break;
+            }
+        }
+        for r in &s.rows {
+            let c = &mut lists[r.list as usize][r.index as usize];
+            s.count[c.a as usize] = 0;
+            if !c.is_wall() {
+                s.count[c.b as usize] = 0;
+            }
+            if r.lambda > 0.0 {
+                if c.impact == 0.0 {
+                    tally.impacts += 1;
+                }
+                c.impact += r.lambda;
+                x[c.a as usize] -= (r.lambda * c.inverse_mass_a * r.time) * c.normal;
+                for i in [c.a, c.b] {
+                    if i != WALL {
+                        if s.latest[i as usize] == f64::INFINITY {
+                            s.touched.push(i);
+                        }
+                        s.latest[i as usize] = s.latest[i as usize].min(r.time);
+                    }
+                }
+                if !c.is_wall() {
+                    x[c.b as usize] += (r.lambda * c.inverse_mass_b * r.time) * c.normal;
+                }
+            }
+        }
+    }
+    tally
+}
+
+/// Starts the resting phase on one list. A contact is active when its gap now (after the impacts)
+/// is at most `reach_gap` (it is touching, or a neighbour's drift may close it; see
+/// [`Tolerances`]); its normal is taken from the current positions and its target from the
+/// current velocities (before any warm start: see [`resting_warm_start`]); the others' impulses
+/// are zeroed. `base` is the index of `x[0]`, `v[0]` in the working
+/// arrays; `drift` and `span` as in [`resting_end`].
+///
+/// The target of an active contact: the resting impulses move each ball by `drift·span·Δv` (see
+/// [`resting_end`]), so the gap after them is `gap + drift·span·(v_n − v_n,now)`. The target keeps
+/// that gap ≥ 0 — `v_n ≥ v_n,now − gap/(drift·span)` — and never asks for a separating velocity
+/// (capped at 0: an overlap is the position phase's business, and pushing it apart with velocity
+/// would add energy). For a ball resting on the floor both sides are 0: it stops, and its drift
+/// puts it back where it started; for a ball a small gap above a support, the target lets it
+/// close exactly that gap.
+#[allow(clippy::too_many_arguments)]
+pub fn resting_begin(
+    list: &mut [Contact],
+    x: &[DVec2],
+    v: &[DVec2],
+    base: usize,
+    ids: &[BallId],
+    span: f64,
+    drift: f64,
+    reach_gap: f64,
+) -> u64 {
+    let mut active = 0;
+    for c in list.iter_mut() {
+        if c.impulse <= RESTED {
+            // The mark has told the impact phase what it needed; no impulse is carried.
+            c.impulse = 0.0;
+        }
+        let xa = x[c.a as usize - base];
+        let gap = if c.is_wall() {
+            c.plane - xa.dot(c.normal) - c.reach
+        } else {
+            let d = x[c.b as usize - base] - xa;
+            let dist = d.length();
+            c.normal = if dist > 1e-9 * c.reach {
+                d / dist
+            } else {
+                coincident_normal(ids[c.a as usize - base], ids[c.b as usize - base])
+            };
+            dist - c.reach
+        };
+        c.active = gap <= reach_gap + TOUCH_MARGIN * c.reach;
+        if !c.active {
+            c.impulse = 0.0;
+            continue;
+        }
+        active += 1;
+        let vn = normal_velocity(c, v, base);
+        c.target = if drift * span > 0.0 {
+            (vn - gap / (drift * span)).min(0.0)
+        } else if gap <= TOUCH_MARGIN * c.reach {
+            0.0
+        } else {
+            f64::NEG_INFINITY
+        };
+    }
+    active
+}
+
+/// Applies the warm-start impulses of one list's active contacts (after [`resting_begin`] has set
+/// every list's targets from the velocities before any of them).
+pub fn resting_warm_start(list: &[Contact], v: &mut [DVec2], base: usize) {
+    for c in list {
+        if c.active && c.impulse > 0.0 {
+            apply(c, c.impulse, v, base);
+        }
+    }
+}
+
+/// One projected Gauss–Seidel pass over the active contacts of one list, in list order or (when
+/// `backward`) the reverse: each impulse changes so that its contact meets its target (see
+/// [`resting_begin`]), the accumulated impulse staying ≥ 0. Returns the largest change of a
+/// relative normal velocity.
+///
+/// Callers alternate the direction (symmetric Gauss–Seidel): a pass carries a change along the
+/// order at once but against it only one contact further, so a pile listed bottom row first gets
+/// the floor's support to the top in a forward pass and the top's weight to the floor in a
+/// backward one.
+pub fn resting_pass(list: &mut [Contact], v: &mut [DVec2], base: usize, backward: bool) -> f64 {
+    let mut largest = 0.0f64;
+    let n = list.len();
+    for k in 0..n {
+        let c = &mut list[if backward { n - 1 - k } else { k }];
+        if !c.active {
+            continue;
+        }
+        let vn = normal_velocity(c, v, base);
+        let w = c.inverse_mass_a + c.inverse_mass_b;
+        let impulse = (c.impulse + (c.target - vn) / w).max(0.0);
+        let delta = impulse - c.impulse;
+        if delta != 0.0 {
+            c.impulse = impulse;
+            apply(c, delta, v, base);
+            largest = largest.max(delta.abs() * w);
+        }
+    }
+    largest
+}
+
+/// Ends the resting phase on one list. A resting impulse stands for a steady force over the span,
+/// so it moves its balls as the integrator would have moved them under that force:
+/// `drift · span · Δv` (see [`resting_drift`]; summed over a ball's contacts, its whole resting
+/// velocity change). The wall impulses (impacts and resting) go on `walls`.
+pub fn resting_end(list: &[Contact], x: &mut [DVec2], base: usize, span: f64, drift: f64, walls: &mut WallImpulses) {
+    for c in list {
+        if c.active && c.impulse > 0.0 {
+            let t = drift * span * c.impulse;
+            x[c.a as usize - base] -= (t * c.inverse_mass_a) * c.normal;
+            if !c.is_wall() {
+                x[c.b as usize - base] += (t * c.inverse_mass_b) * c.normal;
+            }
+        }
+        if c.is_wall() {
+            let j = c.impact + if c.active { c.impulse } else { 0.0 };
+            if j > 0.0 {
+                walls.add(c.wall, j);
+            }
+        }
+    }
+}
+
+/// One pass of the position phase over one list: every overlap is removed, split by inverse mass
+/// (a wall does not move), velocities untouched. Returns the largest overlap found, relative to
+/// its contact distance.
+pub fn position_pass(list: &[Contact], x: &mut [DVec2], base: usize, ids: &[BallId], slop: f64) -> f64 {
+    let mut largest = 0.0f64;
+    for c in list {
+        let (ia, wa) = (c.a as usize - base, c.inverse_mass_a);
+        let allowed = slop * c.reach;
+        if c.is_wall() {
+            let gap = c.plane - x[ia].dot(c.normal) - c.reach;
+            if gap < -allowed {
+                x[ia] += (gap + allowed) * c.normal;
+                largest = largest.max(-gap / c.reach);
+            }
+            continue;
+        }
+        let ib = c.b as usize - base;
+        let d = x[ib] - x[ia];
+        let dd = d.length_squared();
+        let within = c.reach - allowed;
+        if dd >= within * within {
+            continue;
+        }
+        let dist = dd.sqrt();
+        let n = if dist > 1e-9 * c.reach { d / dist } else { coincident_normal(ids[ia], ids[ib]) };
+        let push = within - dist;
+        let w = c.inverse_mass_a + c.inverse_mass_b;
+        x[ia] -= (push * wa / w) * n;
+        x[ib] += (push * c.inverse_mass_b / w) * n;
+        largest = largest.max((c.reach - dist) / c.reach);
+    }
+    largest
+}
+
+/// The position phase's last pass over one list: balls past a wall are put back on it (the pairs
+/// of the last pass may have pushed them there; the walls are immovable). Velocities untouched.
+pub fn wall_pass(list: &[Contact], x: &mut [DVec2], base: usize) {
+    for c in list.iter().filter(|c| c.is_wall()) {
+        let ia = c.a as usize - base;
+        let gap = c.plane - x[ia].dot(c.normal) - c.reach;
+        if gap < 0.0 {
+            x[ia] += gap * c.normal;
+        }
+    }
+}
+
+/// Tolerances of one span, from the fastest uniform acceleration `a` and the span `h`.
+///
+/// A contact approaching slower than `impact` (half of `a·h`, what the acceleration adds in half
+/// a span) is left to the resting phase, which stops it without a bounce: in a resting pile,
+/// weight makes every contact approach at about `a·h` each span, and a bounce at that scale is
+/// the jitter of a discrete step, not an impact (without uniform forces, every approach is an
+/// impact). The resting phase stops iterating once a pass changes no relative velocity by more
+/// than `resting` (a thousandth of `a·h`), and the position phase once no overlap exceeds
+/// `overlap` of its contact distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerances {
+    /// Approach speed (m/s) below which a contact is left to the resting phase.
+    pub impact: f64,
+    /// Largest relative-velocity change of a resting pass at which the phase has converged, m/s.
+    pub resting: f64,
+    /// Largest overlap, relative to the contact distance, beyond the slop at which the position phase stops.
+    pub overlap: f64,
+    /// Overlap, relative to the contact distance, that the position phase leaves alone (Box2D's
+    /// linear slop): pushing out every resting overlap each span lifts a pile against gravity
+    /// and pumps energy into it.
+    pub slop: f64,
+    /// Gap (m) within which a contact takes part in the resting phase: twice what the
+    /// acceleration moves a ball in a span, so a neighbour's drift cannot close a gap unseen.
+    pub reach_gap: f64,
+}
+
+impl Tolerances {
+    /// The tolerances for the largest uniform acceleration (m/s²) and the span (s).
+    pub fn new(largest_acceleration: f64, span: f64) -> Self {
+        let a_h = largest_acceleration * span;
+        Tolerances {
+            impact: 0.5 * a_h + 1e-12,
+            resting: 1e-3 * a_h + 1e-12,
+            overlap: 1e-4,
+            slop: 5e-3,
+            reach_gap: 2.0 * a_h * span,
+        }
+    }
+}
+
+/// The contact solver for a snapshot of balls (see the module comment), with its scratch memory
+/// and the last call's impulses (keyed by ids) for the next call's warm start.
+#[derive(Clone, Debug, Default)]
+pub struct ContactSolver {
+    lists: Vec<Vec<Contact>>,
+    position: Vec<DVec2>,
+    velocity: Vec<DVec2>,
+    ids: Vec<BallId>,
+    impact: ImpactScratch,
+    responses: Vec<BallResponse>,
+    warm_pairs: HashMap<(BallId, BallId), f64>,
+    warm_walls: HashMap<(BallId, u8), f64>,
+}
+
+fn wall_key(wall: Wall) -> u8 {
+    match wall {
+        Wall::Left => 0,
+        Wall::Right => 1,
+        Wall::Bottom => 2,
+        Wall::Top => 3,
+    }
+}
+
+impl ContactSolver {
+    /// An empty solver (no warm start yet).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Whether balls `i` and `j` have a contact in this span's list.
+    fn listed(&self, i: usize, j: usize) -> bool {
+        let (i, j) = (i as u32, j as u32);
+        self.lists[0].iter().any(|c| (c.a == i && c.b == j) || (c.a == j && c.b == i))
+    }
+
+    /// The responses of the last [`ContactSolver::solve`], one per ball in its order.
+    pub fn responses(&self) -> &[BallResponse] {
+        &self.responses
+    }
+
+    /// Solves every contact of `balls` over the span (see the module comment). `pairs` are
+    /// candidate pairs as indices into `balls`, each unordered pair at most once; pairs with an
+    /// index out of range, or a ball with a non-finite state, non-positive radius or inverse mass,
+    /// are skipped (such a ball gets a zero response).
+    pub fn solve(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], params: &ContactParams) -> SolveTally {
+        let n = balls.len();
+        let span = if params.span.is_finite() && params.span > 0.0 { params.span } else { 0.0 };
+        let e = params.restitution.clamp(0.0, 1.0);
+        let mut field = params.field;
+        field.restitution = field.restitution.clamp(0.0, 1.0);
+        let valid = |b: &SolverBall| {
+            b.position.is_finite()
+                && b.velocity.is_finite()
+                && b.acceleration.is_finite()
+                && b.inverse_mass.is_finite()
+                && b.inverse_mass > 0.0
+                && b.radius.is_finite()
+                && b.radius > 0.0
+        };
+        self.position.clear();
+        self.velocity.clear();
+        self.ids.clear();
+        self.position.extend(balls.iter().map(|b| b.position));
+        self.velocity.extend(balls.iter().map(|b| b.velocity));
+        self.ids.extend(balls.iter().map(|b| b.id));
+        self.lists.resize_with(1, Vec::new);
+        self.lists[0].clear();
+        // Walls first (see the lockstep solver: a pass then carries a floor's support up a pile).
+        let body = |i: usize| {
+            let b = &balls[i];
+            (i as u32, b.id, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius)
+        };
+        let mut largest_acceleration = 0.0f64;
+        for (i, b) in balls.iter().enumerate() {
+            if !valid(b) {
+                continue;
+            }
+            largest_acceleration = largest_acceleration.max(b.acceleration.length());
+            let near = b.radius + (b.velocity.length() + b.acceleration.length() * span) * span;
+            if !near_a_wall(b.position, b.radius, near, &field) {
+                continue;
+            }
+            for wall in nearer_walls(b.position, &field) {
+                let ball = (i as u32, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius);
+                if let Some(mut c) = wall_contact(ball, wall, &field, span) {
+                    c.impulse = self.warm_walls.get(&(b.id, wall_key(wall))).copied().unwrap_or(0.0);
+                    self.lists[0].push(c);
+                }
+            }
+        }
+        for &(i, j) in pairs {
+            let (i, j) = (i as usize, j as usize);
+            if i >= n || j >= n || i == j || !valid(&balls[i]) || !valid(&balls[j]) {
+                continue;
+            }
+            if let Some(mut c) = pair_contact(body(i), body(j), span, e) {
+                let key =
+                    if balls[i].id <= balls[j].id { (balls[i].id, balls[j].id) } else { (balls[j].id, balls[i].id) };
+                c.impulse = self.warm_pairs.get(&key).copied().unwrap_or(0.0);
+                self.lists[0].push(c);
+            }
+        }
+        let tolerance = Tolerances::new(largest_acceleration, span);
+        let mut tally = SolveTally { contacts: self.lists[0].len() as u64, converged: true, ..Default::default() };
+        let mut impacts = impact_phase(
+            &mut self.lists,
+            &mut self.position,
+            &mut self.velocity,
+            tolerance.impact,
+            true,
+            &mut self.impact,
+        );
+        for _ in 0..MAX_REDETECTIONS {
+            // Contacts the impacts made: pairs with a struck ball that were not contacts.
+            let mut added = 0;
+            for &(i, j) in pairs {
+                let (i, j) = (i as usize, j as usize);
+                if i >= n || j >= n || i == j || !valid(&balls[i]) || !valid(&balls[j]) {
+                    continue;
+                }
+                if !(self.impact.struck(i) || self.impact.struck(j)) || self.listed(i, j) {
+                    continue;
+                }
+                let now = |k: usize| {
+                    let b = &balls[k];
+                    (k as u32, b.id, self.position[k], self.velocity[k], b.acceleration, b.inverse_mass, b.radius)
+                };
+                if let Some(mut c) = pair_contact(now(i), now(j), span, e) {
+                    c.late = true;
+                    self.lists[0].push(c);
+                    added += 1;
+                }
+            }
+            if added == 0 {
+                break;
+            }
+            let more = impact_phase(
+                &mut self.lists,
+                &mut self.position,
+                &mut self.velocity,
+                tolerance.impact,
+                false,
+                &mut self.impact,
+            );
+            impacts.impacts += more.impacts;
+            impacts.rounds += more.rounds;
+            impacts.converged &= more.converged;
+        }
+        tally.contacts = self.lists[0].len() as u64;
+        tally.impacts = impacts.impacts;
+        tally.impact_rounds = impacts.rounds;
+        tally.converged &= impacts.converged;
+        let list = &mut self.lists[0];
+        tally.resting =
+            resting_begin(list, &self.position, &self.velocity, 0, &self.ids, span, params.drift, tolerance.reach_gap);
+        resting_warm_start(list, &mut self.velocity, 0);
+        if tally.resting > 0 {
+            loop {
+                let change = resting_pass(list, &mut self.velocity, 0, tally.resting_passes % 2 == 1);
+                tally.resting_passes += 1;
+                if change <= tolerance.resting {
+                    break;
+                }
+                if tally.resting_passes == MAX_RESTING_PASSES {
+                    tally.converged = false;
+                    break;
+                }
+            }
+        }
+        resting_end(list, &mut self.position, 0, span, params.drift, &mut tally.walls);
+        loop {
+            let overlap = position_pass(list, &mut self.position, 0, &self.ids, tolerance.slop);
+            tally.position_passes += 1;
+            if overlap <= tolerance.overlap + tolerance.slop {
+                break;
+            }
+            if tally.position_passes == MAX_POSITION_PASSES {
+                tally.converged = false;
+                break;
+            }
+        }
+        wall_pass(list, &mut self.position, 0);
+        self.warm_pairs.clear();
+        self.warm_walls.clear();
+        for c in list.iter() {
+            if c.active {
+                let impulse = c.impulse.max(RESTED);
+                let (ia, ib) = (balls[c.a as usize].id, c.b);
+                if c.is_wall() {
+                    self.warm_walls.insert((ia, wall_key(c.wall)), impulse);
+                } else {
+                    let ib = balls[ib as usize].id;
+                    self.warm_pairs.insert(if ia <= ib { (ia, ib) } else { (ib, ia) }, impulse);
+                }
+            }
+        }
+        self.responses.clear();
+        for (i, b) in balls.iter().enumerate() {
+            let touched = self.position[i] != b.position || self.velocity[i] != b.velocity;
+            let instant = self.impact.instant(i).unwrap_or(if touched { span } else { 0.0 });
+            self.responses.push(BallResponse {
+                velocity_change: self.velocity[i] - b.velocity,
+                shift: self.position[i] - b.position,
+                instant,
+            });
+        }
+        tally
+    }
+}
