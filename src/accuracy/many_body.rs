@@ -611,8 +611,8 @@ impl ManyBodyReport {
              difference grows tenfold in {:.3} s at that rate (once it has reached a collision: the nudged runs stay 1e-12 m \
              apart until the nudged ball's first). Every stepped run is compared with the exact one at two horizons, \
              ln(10)/λ and ln(1000)/λ; a run whose error is ε early on is not comparable ball by ball beyond about \
-             ln(1/ε)/λ, which the coarse steps pass at the second. Error: the largest distance of a ball from where the \
-             exact run has it, m.\n",
+             ln(1/ε)/λ, and a run that takes two contacts of one ball in the wrong order within a step is off by a \
+             ball's size at once. Error: the largest distance of a ball from where the exact run has it, m.\n",
             self.config.gas_balls,
             (self.config.gas_balls as f64 * std::f64::consts::FRAC_PI_4 / 0.2).sqrt(),
             self.collision_rate,
@@ -636,7 +636,14 @@ impl ManyBodyReport {
                 .filter(|r| r.engine == engine && r.horizon == shorter && r.error > 0.0)
                 .filter_map(|r| r.dt.map(|dt| (dt.ln(), r.error.ln())))
                 .collect();
-            if let Some(order) = slope(&pts) {
+            let largest = pts.iter().map(|p| p.1.exp()).fold(0.0, f64::max);
+            if largest < 1e-9 {
+                let _ = writeln!(
+                    s,
+                    "- {engine} at the shorter horizon: the exact engine's answer to rounding at every dt (at most {largest:.1e} m, \
+                     growing with the number of steps)."
+                );
+            } else if let Some(order) = slope(&pts) {
                 let _ = writeln!(s, "- {engine} at the shorter horizon: error ∝ dt^{order:.2} over the sweep.");
             }
         }
