@@ -25,7 +25,7 @@ use winit::window::{Window, WindowId};
 pub use keys::{Action, Arrow, HOTKEYS, Hotkey, help_lines};
 pub use panel::{Command, EnergySample, MOUSE_HELP, PANEL_WIDTH, PanelFrame, PanelPainter, Readouts, Settings, run_ui};
 
-use crate::engine::{self, Engine, EngineKind};
+use crate::engine::{self, Engine, EngineError, EngineKind};
 use crate::physics::{
     Attraction, Ball, BallId, BallKind, Bodies, Effects, attraction_potential_energy, gravity_potential_energy,
     kinetic_energy, momentum,
@@ -238,6 +238,9 @@ struct App {
     options: AppOptions,
     scene: Scene,
     engine: Box<dyn Engine>,
+    /// The engine last switched to, whether it started or not: E goes on from it (so that an
+    /// engine that refuses the scene, as the exact one refuses drag, is skipped by the next E).
+    engine_tried: EngineKind,
     /// When the engine last ticked.
     last_tick: Instant,
     gfx: Option<Graphics>,
@@ -310,6 +313,7 @@ impl App {
         let settings = settings_for(&scene, index, &scene.effects);
         let now = Instant::now();
         Ok(App {
+            engine_tried: options.engine,
             show_panel: options.panel,
             report: AppReport {
                 scene: options.scene_name.clone(),
@@ -603,6 +607,7 @@ impl App {
                 }
             }
             Command::Engine(kind) => {
+                self.engine_tried = kind;
                 // The new engine starts from where the balls are now.
                 let mut scene = self.scene.clone();
                 self.engine.sample(&mut self.balls);
@@ -657,6 +662,21 @@ impl App {
         *flag = !*flag;
         let effects = self.effects_from_settings();
         self.engine.set_effects(effects);
+        // An engine that cannot run an effect (the exact one: drag, attraction) runs without it:
+        // the switch goes back off and the panel says why.
+        let got = self.engine.effects();
+        let dropped: Vec<&str> = [
+            ("drag", effects.drag.is_some() && got.drag.is_none()),
+            ("attraction", effects.attraction.is_some() && got.attraction.is_none()),
+        ]
+        .into_iter()
+        .filter_map(|(name, lost)| lost.then_some(name))
+        .collect();
+        if !dropped.is_empty() {
+            *which(&mut self.settings) = false;
+            let kind = self.engine.kind();
+            self.report_error(EngineError::Unsupported { engine: kind, effects: dropped.join(" and ") }.to_string());
+        }
     }
 
     /// A key went down (`pressed`) or up; `repeat`: the keyboard's own repeat of a held key.
@@ -680,7 +700,7 @@ impl App {
             }
             _ if !pressed || repeat => {}
             Action::Do(command) => self.carry_out(command, &source, event_loop),
-            Action::NextEngine => self.carry_out(Command::Engine(self.engine.kind().next()), &source, event_loop),
+            Action::NextEngine => self.carry_out(Command::Engine(self.engine_tried.next()), &source, event_loop),
         }
     }
 

@@ -18,8 +18,6 @@ pub mod accuracy;
 pub mod app;
 pub mod engine;
 pub mod headless;
-// Its docs come with its rewrite (issue 13).
-#[allow(missing_docs)]
 pub mod lockstep;
 pub mod physics;
 pub mod render;

@@ -62,16 +62,21 @@ pub const CHUNK: usize = 2048;
 /// Time spent in each phase, summed over steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct StepCounters {
+    /// Whole steps taken.
     pub steps: u64,
     /// Sub-steps taken (equal to `steps` when no ball was fast; see [`MAX_TRAVEL`]).
     pub substeps: u64,
     #[serde(serialize_with = "secs")]
+    /// Time in the integrate pass.
     pub integrate: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the broad phase (finding candidate pairs).
     pub broad_phase: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the contact solver.
     pub contacts: Duration,
     #[serde(serialize_with = "secs")]
+    /// Time in the finish pass (speed caps, walls, the split's speeds).
     pub walls: Duration,
     /// Candidate pairs the contact solver checked: every touching pair, and those within the
     /// broad phase's skin of touching (see [`SKIN`]).
@@ -100,6 +105,7 @@ fn secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
 }
 
 impl StepCounters {
+    /// Time in all four phases.
     pub fn total(&self) -> Duration {
         self.integrate + self.broad_phase + self.contacts + self.walls
     }
@@ -151,10 +157,13 @@ pub struct Lockstep {
 }
 
 impl Lockstep {
+    /// An engine for the scene, as it is at its start.
     pub fn new(scene: &Scene) -> Self {
         Self::from_parts(scene.field, scene.effects, scene.integrator, scene.dt, scene.max_balls, &scene.balls)
     }
 
+    /// An engine from its parts: the balls are taken as given (ids kept; new balls get ids past the largest).
+    /// `max_balls` caps [`Lockstep::add_ball`].
     pub fn from_parts(
         field: Field,
         effects: Effects,
@@ -201,18 +210,23 @@ impl Lockstep {
         }
     }
 
+    /// The balls, in the engine's order.
     pub fn bodies(&self) -> &Bodies {
         &self.bodies
     }
+    /// The field (size, walls' restitution).
     pub fn field(&self) -> &Field {
         &self.field
     }
+    /// The effects on.
     pub fn effects(&self) -> &Effects {
         &self.effects
     }
+    /// The integrator.
     pub fn integrator(&self) -> Integrator {
         self.integrator
     }
+    /// The step, s.
     pub fn dt(&self) -> f64 {
         self.dt
     }
@@ -220,18 +234,23 @@ impl Lockstep {
     pub fn time(&self) -> f64 {
         self.time
     }
+    /// Steps taken.
     pub fn steps(&self) -> u64 {
         self.steps
     }
+    /// What the phases took and counted, summed over steps.
     pub fn counters(&self) -> &StepCounters {
         &self.counters
     }
+    /// The impulse each wall has given, N·s, summed since the start.
     pub fn wall_impulses(&self) -> WallImpulses {
         self.wall_impulses
     }
+    /// The pull on the key ball, N.
     pub fn pull(&self) -> DVec2 {
         self.pull
     }
+    /// The most balls the engine takes.
     pub fn max_balls(&self) -> usize {
         self.max_balls
     }
@@ -280,6 +299,7 @@ impl Lockstep {
         }
     }
 
+    /// Threads the phases share out over (1: serial).
     pub fn threads(&self) -> usize {
         self.threads
     }
@@ -306,10 +326,12 @@ impl Lockstep {
         self.pool.clone()
     }
 
+    /// Sets the integrator (the next step uses it).
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
     }
 
+    /// Sets the step, s (the caller checks it is finite and positive).
     pub fn set_dt(&mut self, dt: f64) {
         self.dt = dt;
     }
@@ -319,6 +341,7 @@ impl Lockstep {
         self.pull = force;
     }
 
+    /// Sets the walls' restitution (the caller keeps it in [0, 1]; see `engine::clamp_restitution`).
     pub fn set_field_restitution(&mut self, restitution: f64) {
         self.field.restitution = restitution;
     }
@@ -351,6 +374,7 @@ impl Lockstep {
         Ok(ball.id)
     }
 
+    /// Removes ball `id` and returns it, or [`EngineError::NoSuchBall`].
     pub fn remove_ball(&mut self, id: BallId) -> Result<Ball, EngineError> {
         let index = self.bodies.index_of(id).ok_or(EngineError::NoSuchBall(id))?;
         self.forget_derived();

@@ -69,8 +69,12 @@ struct AccuracyArgs {
     #[arg(long)]
     quick: bool,
     /// Measure the threaded runtime instead (ball cycle and ball count; writes threaded.md).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "many_body")]
     threaded: bool,
+    /// The many-body section instead: Newton's cradle, a gas under gravity, hard-disk pressure,
+    /// with the exact engine as the reference (writes many-body.md and many-body.svg).
+    #[arg(long)]
+    many_body: bool,
 }
 
 #[derive(Args, Debug)]
@@ -302,6 +306,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Accuracy(args)) if args.threaded => {
             ballfield::accuracy::run_threaded_command(&args.out, args.quick)?
+        }
+        Some(Command::Accuracy(args)) if args.many_body => {
+            ballfield::accuracy::many_body::run_command(&args.out, args.quick)?
         }
         Some(Command::Accuracy(args)) => ballfield::accuracy::run_command(&args.out, args.quick)?,
     }

@@ -8,6 +8,7 @@
 
 pub mod analytic;
 mod fit;
+pub mod many_body;
 mod plot;
 mod problems;
 pub mod threaded;
@@ -555,7 +556,7 @@ fn order_cell(f: &Fit) -> String {
     }
 }
 
-fn write_file(path: &Path, text: &str) -> Result<(), AccuracyError> {
+pub(crate) fn write_file(path: &Path, text: &str) -> Result<(), AccuracyError> {
     std::fs::write(path, text).map_err(|source| AccuracyError::Io { path: path.to_path_buf(), source })
 }
 

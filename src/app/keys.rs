@@ -115,7 +115,10 @@ pub const HOTKEYS: &[Hotkey] = &[
             (K::Digit8, "8", Do(C::Scene(7))),
         ],
     },
-    Hotkey { what: "switch engine (threaded / lockstep), keeping the balls", keys: &[(K::KeyE, "E", NextEngine)] },
+    Hotkey {
+        what: "switch engine (threaded / lockstep / exact), keeping the balls",
+        keys: &[(K::KeyE, "E", NextEngine)],
+    },
     Hotkey {
         what: "velocity vectors / centre of mass / traces",
         keys: &[

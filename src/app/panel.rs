@@ -280,7 +280,11 @@ pub fn show(ui: &mut egui::Ui, r: &Readouts, s: &Settings, out: &mut Vec<Command
         };
         row(ui, "balls", r.balls.to_string());
         row(ui, "frame rate", format!("{:.0} /s ({:.1} ms)", r.frame_rate, r.frame_ms));
-        let unit = if r.engine == Some(EngineKind::Lockstep) { "steps/s" } else { "cycles/s per ball" };
+        let unit = match r.engine {
+            Some(EngineKind::Lockstep) => "steps/s",
+            Some(EngineKind::Exact) => "events/s",
+            _ => "cycles/s per ball",
+        };
         row(ui, "simulation", format!("{:.0} {unit}", r.sim_rate));
         row(ui, "kinetic", format!("{:.4e} J", r.kinetic));
         row(ui, "potential", format!("{:.4e} J", r.potential));
@@ -343,7 +347,7 @@ pub fn show(ui: &mut egui::Ui, r: &Readouts, s: &Settings, out: &mut Vec<Command
     });
     ui.horizontal(|ui| {
         ui.label("engine");
-        for kind in [EngineKind::Threaded, EngineKind::Lockstep] {
+        for kind in EngineKind::ALL {
             if ui.selectable_label(r.engine == Some(kind), kind.name()).clicked() && r.engine != Some(kind) {
                 out.push(Command::Engine(kind));
             }

@@ -249,6 +249,7 @@ impl Engine for LockstepEngine {
             state_hash: Some(self.engine.state_hash()),
             threads: Some(self.engine.threads()),
             runtime: None,
+            exact: None,
         }
     }
 

@@ -18,6 +18,7 @@
 //! one blocking way to get to an instant (headless runs and their frames); [`Engine::tick`] is
 //! the window's non-blocking one.
 
+mod exact;
 mod lockstep_engine;
 mod threaded_engine;
 
@@ -31,6 +32,7 @@ use crate::physics::{Ball, BallId, BallKind, Diagnostics, Effects, Field, Integr
 use crate::runtime::RuntimeStats;
 use crate::scene::Scene;
 
+pub use exact::{ExactCounters, ExactEngine, ExactParams, ExactStats, REST_HEIGHT};
 pub use lockstep_engine::LockstepEngine;
 pub use threaded_engine::{ThreadedEngine, runtime_config};
 
@@ -44,17 +46,21 @@ pub enum EngineKind {
     Threaded,
     /// Every ball together, a fixed dt, bit-reproducible (the reference for tests and benches).
     Lockstep,
+    /// Event-driven: every collision at its exact instant, on exact parabolas (collisions,
+    /// uniform gravity and the key ball's pull only).
+    Exact,
 }
 
 impl EngineKind {
     /// Every engine, in the order the window's E key cycles through them.
-    pub const ALL: [EngineKind; 2] = [EngineKind::Threaded, EngineKind::Lockstep];
+    pub const ALL: [EngineKind; 3] = [EngineKind::Threaded, EngineKind::Lockstep, EngineKind::Exact];
 
     /// The name on the command line (`--engine threaded|lockstep`), in reports and on the panel.
     pub fn name(self) -> &'static str {
         match self {
             EngineKind::Threaded => "threaded",
             EngineKind::Lockstep => "lockstep",
+            EngineKind::Exact => "exact",
         }
     }
 
@@ -102,6 +108,17 @@ pub enum EngineError {
     /// The operating system refused to start a ball or monitor thread; the text is its error.
     #[error("could not start a thread: {0}")]
     Spawn(String),
+    /// The engine cannot run an effect the scene turns on (the exact engine: drag, attraction).
+    #[error(
+        "the {engine} engine cannot run {effects}: it runs collisions, uniform gravity and the key ball's pull \
+         only; turn {effects} off or use the lockstep or threaded engine"
+    )]
+    Unsupported {
+        /// The engine that refused.
+        engine: EngineKind,
+        /// The effects it cannot run, by name ("drag", "attraction", "drag and attraction").
+        effects: String,
+    },
 }
 
 /// What an engine measured about its own run, for the report: the part of the figures that only
@@ -122,6 +139,8 @@ pub struct EngineFigures {
     pub threads: Option<usize>,
     /// The threaded runtime's own figures.
     pub runtime: Option<RuntimeStats>,
+    /// The exact engine's own figures.
+    pub exact: Option<ExactStats>,
 }
 
 /// How an engine's shutdown went.
@@ -250,6 +269,7 @@ pub fn start(kind: EngineKind, scene: &Scene, threads: Option<usize>) -> Result<
     Ok(match kind {
         EngineKind::Lockstep => Box::new(LockstepEngine::new(scene, threads)),
         EngineKind::Threaded => Box::new(ThreadedEngine::start(scene)?),
+        EngineKind::Exact => Box::new(ExactEngine::new(scene)?),
     })
 }
 

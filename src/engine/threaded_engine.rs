@@ -285,6 +285,7 @@ impl Engine for ThreadedEngine {
             state_hash: None,
             threads: None,
             runtime: Some(stats),
+            exact: None,
         }
     }
 

@@ -146,7 +146,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<Outcome, Headless
     let mut engine =
         engine::start(options.engine, &scene, options.threads).map_err(|e| HeadlessError::Engine(options.engine, e))?;
     let step = match options.engine {
-        EngineKind::Lockstep => scene.dt,
+        EngineKind::Lockstep | EngineKind::Exact => scene.dt,
         EngineKind::Threaded => scene.ball_cycle,
     };
     let end = steps_for(options.length, step) as f64 * step;
@@ -242,7 +242,11 @@ fn finish(
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),
         engine: options.engine.name().into(),
-        integrator: engine.integrator().name().into(),
+        integrator: match options.engine {
+            // Nothing is integrated: every ball flies its exact parabola between events.
+            EngineKind::Exact => "exact parabolas".into(),
+            _ => engine.integrator().name().into(),
+        },
         dt: figures.dt,
         steps: figures.steps,
         simulated_seconds: engine.time(),
@@ -263,5 +267,6 @@ fn finish(
             shutdown_seconds: 0.0,
             threads_joined: 0,
         }),
+        exact: figures.exact,
     }
 }

@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use crate::engine::ExactStats;
 use crate::lockstep::StepCounters;
 use crate::physics::Diagnostics;
 use crate::runtime::RuntimeStats;
@@ -46,6 +47,8 @@ pub struct RunReport {
     pub memory: Option<MemoryUse>,
     /// The threaded runtime's own figures.
     pub runtime: Option<ThreadedFigures>,
+    /// The exact engine's own figures: collisions, events per second, invalidated events.
+    pub exact: Option<ExactStats>,
 }
 
 /// Resident memory the engine took: the process's peak resident set (`VmHWM` of
@@ -116,9 +119,11 @@ impl RunReport {
             if self.active_effects.is_empty() { "none (vacuum)".into() } else { self.active_effects.join(", ") }
         );
         let _ = writeln!(s, "balls        {}", self.balls);
+        // The exact engine takes no steps: its unit of work is the event.
+        let unit = if self.exact.is_some() { "events" } else { "steps" };
         let _ = writeln!(
             s,
-            "ran          {} steps = {:.3} s simulated in {:.3} s wall ({:.0} steps/s)",
+            "ran          {} {unit} = {:.3} s simulated in {:.3} s wall ({:.0} {unit}/s)",
             self.steps, self.simulated_seconds, self.wall_seconds, self.steps_per_second
         );
         if let Some(threads) = self.threads {
@@ -209,6 +214,26 @@ impl RunReport {
                 "cost         {:.2} CPU s in {:.2} s ({:.2} cores); shutdown joined {} threads in {:.3} s",
                 t.cpu_seconds, self.wall_seconds, t.cpu_cores_used, t.threads_joined, t.shutdown_seconds
             );
+        }
+        if let Some(x) = &self.exact {
+            let c = &x.counters;
+            let _ = writeln!(
+                s,
+                "events       {} ({} collisions, {} wall bounces, {} cell crossings): {:.0} events/s, {:.0} collisions/s",
+                x.events, c.collisions, c.wall_bounces, c.cell_crossings, x.events_per_second, x.collisions_per_second
+            );
+            let _ = writeln!(
+                s,
+                "calendar     {} predictions; invalidated {} superseded, {} by a partner's change; peak {} events",
+                c.predictions, x.invalidated_superseded, x.invalidated_partner, x.calendar_peak
+            );
+            if c.soft_collisions + c.rests + c.slides + c.hops > 0 {
+                let _ = writeln!(
+                    s,
+                    "rest model   {} soft collisions (collapse model), {} rests, {} slides, {} wakes, {} hops; {} at rest, {} sliding now",
+                    c.soft_collisions, c.rests, c.slides, c.wakes, c.hops, x.at_rest, x.sliding
+                );
+            }
         }
         if let Some(h) = &self.state_hash {
             let _ = writeln!(s, "state hash   {h}");

@@ -40,7 +40,7 @@ use crate::physics::{
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
-/// many as there are balls; see [`ContactSolver::solve`]).
+/// many as there are balls; see `ContactSolver::solve`).
 pub const PARALLEL_MIN_PAIRS: usize = 512;
 
 /// A candidate pair (slots) and its resting impulse of the last sub-step (warm start).

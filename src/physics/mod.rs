@@ -13,6 +13,7 @@ mod contact;
 mod contact_solver;
 mod diagnostics;
 mod effects;
+mod event;
 mod field;
 mod forces;
 mod integrator;
@@ -40,6 +41,10 @@ pub use effects::{
     MAX_ORBIT_STEP, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force, attraction_pair,
     attraction_potential, attraction_rate_squared, cap_drag_rate, drag_force, drag_rate, drag_rate_bound,
     gravity_force, gravity_potential, quadratic_terminal_speed,
+};
+pub use event::{
+    CLOSING_SLACK, Collision, Mobility, closing_slack, collide, cone_contains, entry_time, first_entry, flight,
+    pair_gap_polynomial, pair_time, plane_time, soft_restitution,
 };
 pub use field::{Field, Wall, WallImpulses};
 pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
