@@ -57,6 +57,12 @@ pub struct ThreadedEngine {
     last_rate: f64,
     /// The table as last read (kept for its memory).
     records: Vec<BallRecord>,
+    /// The runtime's clock (s) at the instant the engine last paused it.
+    paused_clock: Option<f64>,
+    /// Simulated seconds the balls stand ahead of the engine's clock after [`Engine::quiesce`]:
+    /// paused, every ball catches up to the monitor's horizon, which runs up to a few monitor
+    /// periods ahead of the clock, so the balls read then are of that later instant.
+    lead: f64,
 }
 
 impl ThreadedEngine {
@@ -72,6 +78,8 @@ impl ThreadedEngine {
             placement: Placement::new(scene.seed),
             last_rate: 0.0,
             records: Vec::new(),
+            paused_clock: None,
+            lead: 0.0,
         })
     }
 
@@ -82,11 +90,15 @@ impl ThreadedEngine {
     }
 
     fn pause_now(&mut self) {
+        // The clock before the flag: the monitor drops paused time only once it sees the flag.
+        self.paused_clock.get_or_insert(self.runtime.clock_seconds());
         self.runtime.pause();
         self.clock.rebase(false);
     }
 
     fn resume_now(&mut self) {
+        self.paused_clock = None;
+        self.lead = 0.0;
         self.runtime.resume();
         self.clock.rebase(true);
     }
@@ -98,8 +110,9 @@ impl Engine for ThreadedEngine {
     }
 
     fn time(&self) -> f64 {
-        // Less the wall time the runtime dropped from its clock (a stalled process).
-        (self.clock.now() - self.runtime.clock_dropped_seconds() * self.clock.scale).max(0.0)
+        // Less the wall time the runtime dropped from its clock (a stalled process); plus, once
+        // quiesced, how far ahead the balls stand.
+        (self.clock.now() - self.runtime.clock_dropped_seconds() * self.clock.scale).max(0.0) + self.lead
     }
 
     fn advance_to(&mut self, t: f64) {
@@ -162,12 +175,15 @@ impl Engine for ThreadedEngine {
 
     fn quiesce(&mut self) {
         self.step_until = None;
-        self.clock.rebase(false);
+        self.pause_now();
         // Every ball catches up to the monitor's horizon with every contact message applied, so
-        // the balls are read at one instant.
+        // the balls are read at one instant: the horizon, which the monitor published before it
+        // saw the pause, on the clock the pause was read from.
         if !self.runtime.settle(Duration::from_secs(5)) {
             log::warn!("the threaded engine's balls did not all catch up within 5 s: the end state mixes instants");
         }
+        let paused = self.paused_clock.unwrap_or_else(|| self.runtime.clock_seconds());
+        self.lead = (self.runtime.horizon_seconds() - paused).max(0.0) * self.clock.scale;
     }
 
     fn sample(&mut self, out: &mut Vec<Ball>) {

@@ -482,6 +482,18 @@ impl Runtime {
         })
     }
 
+    /// The runtime's clock now, s (see `Shared::clock`: wall time less what it dropped).
+    pub fn clock_seconds(&self) -> f64 {
+        self.shared.clock(Instant::now()) as f64 * 1e-9
+    }
+
+    /// The monitor's horizon, on the runtime's clock, s: no ball integrates past it; a paused
+    /// runtime's balls catch up to it and stand there (see [`Runtime::settle`]).
+    pub fn horizon_seconds(&self) -> f64 {
+        // Acquire: see `Shared::horizon` (only the value is read here).
+        self.shared.horizon.load(Ordering::Acquire) as f64 * 1e-9
+    }
+
     /// Seconds of wall time the runtime's clock dropped (a stall of the whole process is not
     /// simulated: see `Shared::clock`).
     pub fn clock_dropped_seconds(&self) -> f64 {
