@@ -767,7 +767,16 @@ impl ManyBodyReport {
                 .y_label_area_size(60)
                 .build_cartesian_2d((x0 / 2.0..x1 * 2.0).log_scale(), (y0 / 3.0..y1 * 3.0).log_scale())
                 .map_err(|e| e.to_string())?;
-            chart.configure_mesh().x_desc("wall time (s)").y_desc("error").draw().map_err(|e| e.to_string())?;
+            chart
+                .configure_mesh()
+                .x_desc("wall time (s)")
+                .y_desc("error")
+                // Log-scale ticks are powers of ten computed in floating point (0.00999…): one
+                // significant figure names each.
+                .x_label_formatter(&|x| format!("{x:.0e}"))
+                .y_label_formatter(&|y| format!("{y:.0e}"))
+                .draw()
+                .map_err(|e| e.to_string())?;
             for (engine, colour) in [
                 ("exact", RGBColor(0, 0, 0)),
                 ("lockstep", RGBColor(255, 127, 14)),

@@ -97,7 +97,7 @@ fn raise_priority() {
     }
 }
 
-/// The monitor is the only writer of the clock's offset: it moves the clock back by `ns`.
+/// While it runs, the monitor is the only writer of the clock's offset: it moves the clock back by `ns`.
 fn drop_time(shared: &Shared, ns: u64) {
     // Relaxed load: this thread is the only writer. Release store: see `Shared::clock_offset`.
     let offset = shared.clock_offset.load(Ordering::Relaxed);
