@@ -13,10 +13,15 @@ use super::field::{Field, Wall, WallImpulses};
 /// What the contact solver needs to know of one ball.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactBody {
+    /// The ball's id: it picks the normal of coincident centres ([`coincident_normal`]).
     pub id: BallId,
+    /// Centre at the end of the step, m.
     pub position: DVec2,
+    /// Velocity at the end of the step, m/s.
     pub velocity: DVec2,
+    /// 1/mass, 1/kg.
     pub inverse_mass: f64,
+    /// m.
     pub radius: f64,
 }
 
@@ -29,11 +34,14 @@ pub struct BallBallContact {
     pub penetration: f64,
     /// Magnitude of the normal impulse J (≥ 0), N·s; a receives −J·n, b receives +J·n.
     pub impulse: f64,
+    /// a's velocity change, −J·n/m_a, m/s.
     pub velocity_change_a: DVec2,
+    /// b's velocity change, +J·n/m_b, m/s.
     pub velocity_change_b: DVec2,
     /// Position corrections that push the pair apart to just touching, split by inverse mass so
-    /// the centre of mass stays put.
+    /// the centre of mass stays put: a's share, m.
     pub shift_a: DVec2,
+    /// b's share of the position correction (see `shift_a`), m.
     pub shift_b: DVec2,
 }
 

@@ -7,8 +7,6 @@ mod ball;
 mod barnes_hut;
 mod bodies;
 mod broad_phase;
-// Its docs come with its rewrite (issue 13).
-#[allow(missing_docs)]
 mod contact;
 mod contact_solver;
 mod diagnostics;
