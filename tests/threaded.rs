@@ -26,16 +26,10 @@ fn scene(text: &str) -> Scene {
     Scene::from_toml_str(text, &Origin("test".into())).unwrap()
 }
 
-/// Pauses the runtime and waits until every contact message sent has been applied, so that the
-/// table is one consistent instant.
+/// Pauses the runtime and waits until every ball has caught up to the monitor's horizon with
+/// every contact message applied ([`Runtime::settle`]): the table is then one instant.
 fn settle(rt: &Runtime) {
-    rt.pause();
-    let ok = wait_until(Duration::from_secs(5), || {
-        let s = rt.stats();
-        s.impulses_sent == s.impulses_applied
-    });
-    assert!(ok, "messages still in flight: {:?}", rt.stats());
-    std::thread::sleep(Duration::from_millis(5));
+    assert!(rt.settle(Duration::from_secs(5)), "the balls did not catch up: {:?}", rt.stats());
 }
 
 fn check_inside(field: &Field, balls: &[Ball]) {

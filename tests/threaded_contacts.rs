@@ -10,7 +10,6 @@ use ballfield::Scene;
 use ballfield::physics::{Ball, BallId, BallKind};
 use ballfield::runtime::{BallRecord, Runtime, RuntimeConfig};
 use ballfield::scene::Origin;
-use common::wait_until;
 use glam::DVec2;
 
 /// One runtime at a time: each test measures a machine's worth of threads.
@@ -30,16 +29,10 @@ fn ball(id: u32, position: DVec2, velocity: DVec2, mass: f64, diameter: f64) -> 
     Ball { id: BallId(id), kind: BallKind::Ball, position, velocity, mass, diameter }
 }
 
-/// Pauses and waits until every contact message sent has been applied: the table is then one
-/// instant for every ball.
+/// Pauses and waits until every ball has caught up to the monitor's horizon with every contact
+/// message applied ([`Runtime::settle`]): the table is then one instant for every ball.
 fn settle(rt: &Runtime) -> Vec<BallRecord> {
-    rt.pause();
-    let ok = wait_until(Duration::from_secs(5), || {
-        let s = rt.stats();
-        s.impulses_sent == s.impulses_applied
-    });
-    assert!(ok, "messages still in flight: {:?}", rt.stats());
-    std::thread::sleep(Duration::from_millis(5));
+    assert!(rt.settle(Duration::from_secs(5)), "the balls did not catch up: {:?}", rt.stats());
     let mut records = rt.snapshot();
     records.sort_by_key(|r| r.ball.id);
     records
