@@ -1,0 +1,501 @@
+//! Contacts hold in every engine (issue 13, "each point holds in both engines"): the same cases
+//! run on each of `EngineKind::ALL` through `dyn Engine` alone, from scenes written as TOML, as
+//! the window and headless runs start them.
+//! - an oblique two-ball collision comes out as the closed form says (normal at the instant of
+//!   contact) and loses (1 − e²)·½·μ·v_n², with gravity off and on, and e = 0.99 is within a few
+//!   percent of e = 1;
+//! - a free-falling cluster keeps p₀ + M·g·t whatever collides inside it;
+//! - a ball dropped on a ball resting on the floor rebounds as sequential impacts predict;
+//! - a ball striking two touching balls between them leaves them mirror images.
+//!
+//! The threaded engine runs in wall time, so its runs are short (under half a second of
+//! simulated time each) and one at a time. Its clock and its balls' instant differ after
+//! `quiesce` (the balls stand at the monitor's horizon, a little ahead of the clock), so where a
+//! check needs the balls' instant it reads it off a witness: a ball falling freely from rest far
+//! from the others, whose velocity is g·t.
+//!
+//! Tolerances are per engine, near what each achieves (the measured figures are in each test's
+//! comment; the threaded engine's are the spread over 10 runs of the file). Where an engine
+//! fails a case, that engine's run is an ignored test with the figures in its reason.
+//!
+//! Every check is seen to fail on a broken build:
+//! - (α) ball b's share of every impulse scaled by 1.01 (`apply` in `physics/contact_solver.rs`,
+//!   `collide` in `physics/event.rs`): the momentum checks fail in every engine (the cluster at
+//!   e = 0.3 off by 3.8e-3 lockstep, 3.8e-3 threaded, 1.5e-3 exact), as do the pairs' velocity
+//!   (up to 5.8e-3) and energy (up to 1.0e-2) checks and lockstep's drop (2.846 m/s);
+//! - (β) restitution below 1 taken as 0 (the impact phase's target in `contact_solver.rs`, the
+//!   outgoing speed in `engine/exact/world.rs`): e = 0.99 leaves 1.0 of the approach speed from
+//!   e = 1 in every engine, and the dropped ball stops dead on the resting one (not rising);
+//! - (γ) the impact round solved as sequential binary impulses (no mass splitting, each impulse
+//!   applied at once, one sweep): B and C mirror each other only to 0.92, A is pushed sideways
+//!   by 0.59 (lockstep and threaded);
+//! - the scenes' collisions left out: no ball struck; the runs twelve times longer: balls reach
+//!   the walls.
+
+use std::fmt::Write as _;
+use std::sync::Mutex;
+
+use ballfield::engine::{self, Engine, EngineKind};
+use ballfield::physics::Ball;
+use ballfield::scene::{Origin, Scene};
+use glam::DVec2;
+
+/// The threaded engine's runs share the machine's cores: one at a time (every test here runs it).
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+const G: f64 = 9.81;
+
+/// The scenes' default integrator, the one a player gets.
+const DEFAULT: &str = "semi-implicit-euler";
+/// Exact for free flight under uniform gravity at any step (drift–kick–drift): under gravity
+/// the flight then adds no error of its own, and whatever is off is the contacts'. (The threaded
+/// engine's ball cycles are of uneven length, and semi-implicit Euler's flight strays from the
+/// parabola by ½·g·Σh² over steps h: two balls with different cycle histories no longer move
+/// in a straight line relative to each other; see
+/// `threaded_oblique_collision_under_gravity_with_semi_implicit_euler`.)
+const LEAPFROG: &str = "leapfrog";
+
+/// Notes a failed check and goes on, so that one run shows every engine's and every case's
+/// failures (each test asserts at its end that there were none).
+macro_rules! check {
+    ($failures:ident, $ok:expr, $($message:tt)+) => {
+        // Negated, so that a comparison with a NaN counts as failed.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let failed = !$ok;
+        if failed {
+            $failures.push(format!($($message)+));
+        }
+    };
+}
+
+/// Fails the test with every failed check.
+fn none_failed(failures: Vec<String>) {
+    assert!(failures.is_empty(), "{} checks failed:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// A ball of a scene: position, velocity, mass, diameter.
+#[derive(Clone, Copy, Debug)]
+struct Spec {
+    x: DVec2,
+    v: DVec2,
+    m: f64,
+    d: f64,
+}
+
+fn spec(x: [f64; 2], v: [f64; 2], m: f64, d: f64) -> Spec {
+    Spec { x: DVec2::from(x), v: DVec2::from(v), m, d }
+}
+
+/// A scene as a TOML document: a `width` × `height` field with walls of restitution `e_wall`,
+/// ball restitution `e`, gravity (−y) if `gravity`, the balls advanced by `integrator` (its name
+/// in a scene file), and `balls` in order (ids 0, 1, …).
+fn scene(width: f64, height: f64, e_wall: f64, e: f64, gravity: bool, integrator: &str, balls: &[Spec]) -> Scene {
+    let mut toml = String::new();
+    writeln!(toml, "name = \"contacts-every-engine\"").unwrap();
+    writeln!(toml, "[field]\nwidth = {width:?}\nheight = {height:?}\nrestitution = {e_wall:?}").unwrap();
+    writeln!(toml, "[simulation]\ndt = 0.001\nseed = 7\nintegrator = \"{integrator}\"").unwrap();
+    writeln!(toml, "[effects]\ncollisions = {{ restitution = {e:?} }}").unwrap();
+    if gravity {
+        writeln!(toml, "gravity = {{ g = [0.0, {:?}] }}", -G).unwrap();
+    }
+    for b in balls {
+        writeln!(
+            toml,
+            "[[balls]]\nposition = [{:?}, {:?}]\nvelocity = [{:?}, {:?}]\nmass = {:?}\ndiameter = {:?}",
+            b.x.x, b.x.y, b.v.x, b.v.y, b.m, b.d
+        )
+        .unwrap();
+    }
+    Scene::from_toml_str(&toml, &Origin("contacts-every-engine.toml".into())).unwrap()
+}
+
+/// What a run ended with: the balls (sorted by id, so in the scene's order), the engine's clock,
+/// and the impulse the walls took in all.
+struct End {
+    balls: Vec<Ball>,
+    time: f64,
+    walls: f64,
+}
+
+/// Runs `scene` on `kind` to simulated time `t`, stops it and reads it.
+fn run(kind: EngineKind, scene: &Scene, t: f64) -> End {
+    let mut e: Box<dyn Engine> = engine::start(kind, scene, Some(1)).unwrap();
+    e.advance_to(t);
+    e.quiesce();
+    let mut balls = Vec::new();
+    e.sample(&mut balls);
+    let end = End { balls, time: e.time(), walls: e.wall_impulses().total() };
+    e.shutdown();
+    assert_eq!(end.balls.len(), scene.balls.len(), "{kind}: every ball is still on the field");
+    end
+}
+
+/// The balls' instant, from a witness that fell freely from rest under gravity g: its velocity
+/// is −g·t (every integrator adds g·dt to the velocity per step, which sums to g·t to rounding).
+fn witness_time(witness: &Ball) -> f64 {
+    -witness.velocity.y / G
+}
+
+/// The closed-form binary collision of `a` and `b` (any uniform gravity drops out of the
+/// relative motion): the normal at the instant of contact (from `a` to `b`) and the velocity
+/// change of each ball.
+fn binary(a: &Spec, b: &Spec, e: f64) -> (DVec2, DVec2, DVec2) {
+    let reach = 0.5 * (a.d + b.d);
+    let (d, u) = (b.x - a.x, b.v - a.v);
+    // |d + u·t| = reach, the earlier root.
+    let (qa, qb, qc) = (u.length_squared(), d.dot(u), d.length_squared() - reach * reach);
+    let t = (-qb - (qb * qb - qa * qc).sqrt()) / qa;
+    let n = (d + u * t) / reach;
+    let j = -(1.0 + e) * u.dot(n) / (1.0 / a.m + 1.0 / b.m);
+    (n, -j / a.m * n, j / b.m * n)
+}
+
+/// Two pairs in lanes 40 m apart, each a 1 kg, 1 m ball meeting a 2 kg, 1.2 m ball at 10 m/s
+/// with the impact parameter at `angle`° of the line of centres at contact (30° and 65°), after
+/// about 0.1 s; a witness ball falls alone. Nothing reaches a wall in 0.4 s (gravity or not).
+fn pairs() -> Vec<Spec> {
+    let reach = 0.5 * (1.0 + 1.2);
+    let mut balls = Vec::new();
+    for (lane, angle) in [(30.0, 30.0f64), (70.0, 65.0)] {
+        let b = reach * angle.to_radians().sin();
+        balls.push(spec([40.0, lane], [6.0, 1.0], 1.0, 1.0));
+        balls.push(spec([40.0 + reach * angle.to_radians().cos() + 1.0, lane + b], [-4.0, 1.0], 2.0, 1.2));
+    }
+    balls.push(spec([90.0, 90.0], [0.0, 0.0], 1.0, 1.0));
+    balls
+}
+
+/// How far a pair's run is from the closed form: velocity error (relative to the closing speed;
+/// without gravity each ball's velocity, with gravity the relative velocity, which gravity does
+/// not change), energy loss of the relative motion against (1 − e²)·½·μ·v_n² (relative to the
+/// relative motion's energy), and the outcome's relative velocity after.
+fn pair_errors(start: &[Spec], end: &[Ball], k: usize, e: f64, gravity: bool) -> (f64, f64, DVec2) {
+    let (a, b) = (&start[2 * k], &start[2 * k + 1]);
+    let (ea, eb) = (&end[2 * k], &end[2 * k + 1]);
+    let (n, dva, dvb) = binary(a, b, e);
+    let u = b.v - a.v;
+    let after = eb.velocity - ea.velocity;
+    let dv = if gravity {
+        (after - (u + dvb - dva)).length()
+    } else {
+        (ea.velocity - (a.v + dva)).length().max((eb.velocity - (b.v + dvb)).length())
+    };
+    let mu = a.m * b.m / (a.m + b.m);
+    let vn = u.dot(n);
+    let want_loss = (1.0 - e * e) * 0.5 * mu * vn * vn;
+    let loss = 0.5 * mu * (u.length_squared() - after.length_squared());
+    (dv / u.length(), (loss - want_loss).abs() / (0.5 * mu * u.length_squared()), after)
+}
+
+/// The bounds of the pair checks (relative velocity error, relative energy-loss error).
+type PairBounds = fn(EngineKind) -> (f64, f64);
+
+/// The pair checks' bounds per engine, about ten times the largest error measured (see the
+/// tests' comments): every engine solves a binary collision in closed form, so what is left is
+/// rounding — the exact engine's of one collision, the stepped engines' of the replay from the
+/// instant of contact and of the flight's hundreds of steps.
+fn pair_bounds(kind: EngineKind) -> (f64, f64) {
+    match kind {
+        EngineKind::Exact => (1e-13, 1e-13),
+        EngineKind::Lockstep => (1e-12, 1e-12),
+        EngineKind::Threaded => (5e-12, 5e-12),
+    }
+}
+
+/// Runs the two pairs at e = 0, 0.5, 0.99 and 1 on each of `kinds` and checks each against the
+/// closed form (within `bounds`); with gravity also the four balls' momentum against p₀ + M·g·t;
+/// and that e = 0.99 leaves within 2 % of the normal approach speed of e = 1 (the closed form
+/// says 1 %).
+fn oblique_pairs(kinds: &[EngineKind], gravity: bool, integrator: &str, bounds: PairBounds) {
+    let _s = serial();
+    let mut failures = Vec::new();
+    let start = pairs();
+    for &kind in kinds {
+        let (dv_bound, de_bound) = bounds(kind);
+        let mut outcome = Vec::new();
+        for e in [0.0, 0.5, 0.99, 1.0] {
+            let s = scene(100.0, 100.0, 1.0, e, gravity, integrator, &start);
+            let end = run(kind, &s, 0.4);
+            let t = witness_time(&end.balls[4]);
+            let mut p_err = 0.0f64;
+            if gravity {
+                let p0: DVec2 = start[..4].iter().map(|b| b.m * b.v).sum();
+                let mass: f64 = start[..4].iter().map(|b| b.m).sum();
+                let p: DVec2 = end.balls[..4].iter().map(|b| b.mass * b.velocity).sum();
+                let scale: f64 = start[..4].iter().map(|b| b.m * b.v.length()).sum::<f64>() + mass * G * t;
+                p_err = (p - (p0 + mass * DVec2::new(0.0, -G) * t)).length() / scale;
+            }
+            for k in 0..2 {
+                let (dv, de, after) = pair_errors(&start, &end.balls, k, e, gravity);
+                eprintln!(
+                    "{kind} g {gravity} {integrator} e {e} pair {k}: velocity error {dv:.2e}, energy loss error \
+                     {de:.2e}, momentum error {p_err:.2e} (clock {:.4} s, balls at {t:.4} s)",
+                    end.time
+                );
+                check!(
+                    failures,
+                    dv <= dv_bound,
+                    "{kind} g {gravity} e {e} pair {k}: velocities off the closed form by {dv:e}"
+                );
+                check!(failures, de <= de_bound, "{kind} g {gravity} e {e} pair {k}: energy loss off by {de:e}");
+                outcome.push((e, k, after));
+            }
+            check!(failures, end.walls == 0.0, "{kind} g {gravity} e {e}: a ball reached a wall");
+            check!(failures, p_err <= dv_bound, "{kind} e {e}: momentum off p₀ + M·g·t by {p_err:e}");
+        }
+        for k in 0..2 {
+            let at = |e: f64| outcome.iter().find(|&&(x, j, _)| x == e && j == k).unwrap().2;
+            let (n, _, _) = binary(&start[2 * k], &start[2 * k + 1], 1.0);
+            let vn = (start[2 * k + 1].v - start[2 * k].v).dot(n).abs();
+            let gap = (at(0.99) - at(1.0)).length() / vn;
+            eprintln!("{kind} g {gravity} pair {k}: e = 0.99 is {gap:.6} of the approach speed from e = 1");
+            check!(
+                failures,
+                gap <= 0.02,
+                "{kind} g {gravity} pair {k}: e = 0.99 is {gap} of the approach speed from e = 1"
+            );
+        }
+    }
+    none_failed(failures);
+}
+
+/// Without gravity, at 30° and 65°. Measured (velocity error relative to the closing speed;
+/// energy-loss error relative to the relative motion's energy): lockstep 2.0e-13 and 1.2e-13;
+/// exact 2.3e-15 and 1.6e-15; threaded 4e-16–3.4e-13 and 0–1.9e-13. e = 0.99 leaves 0.010000 of
+/// the approach speed from e = 1 in every engine. Seen to fail with (α) and (β).
+#[test]
+fn an_oblique_collision_matches_the_closed_form() {
+    oblique_pairs(&EngineKind::ALL, false, DEFAULT, pair_bounds);
+}
+
+/// With gravity (leapfrog: the flight is exact, so the error is the collision's): the relative
+/// velocity as the closed form says, and the pairs' momentum p₀ + M·g·t. Measured: lockstep
+/// 4.3e-15 and 6.2e-15; exact 3.5e-15 and 1.6e-15; threaded 7e-16–7.9e-13 and 0–3.0e-13;
+/// momentum within 8.2e-16 of its scale in every engine. Seen to fail with (α) (momentum off by
+/// 1.6e-3 at e = 0) and (β).
+#[test]
+fn an_oblique_collision_under_gravity_matches_the_closed_form() {
+    oblique_pairs(&EngineKind::ALL, true, LEAPFROG, pair_bounds);
+}
+
+/// The same with the default integrator, semi-implicit Euler, in the engines whose balls all
+/// take the same steps (the exact engine has no steps). Measured: lockstep 3.0e-13 and 1.2e-13;
+/// exact as with leapfrog.
+#[test]
+fn an_oblique_collision_under_gravity_with_semi_implicit_euler() {
+    oblique_pairs(&[EngineKind::Lockstep, EngineKind::Exact], true, DEFAULT, pair_bounds);
+}
+
+/// The threaded engine with the default integrator under gravity: each ball's semi-implicit
+/// Euler flight strays from the parabola by ½·g·Σh² over its own, uneven cycles h, so the pair's
+/// relative motion is not the straight line the closed form (and the monitor's time of impact)
+/// takes, and the normal comes out off (at e = 1 a velocity error of 7e-4 of the closing speed is
+/// a normal off by about 3.5e-4 rad). Leapfrog, exact for the flight, removes it (the test
+/// above). Measured over 10 runs: velocity error 6e-9 to
+/// 6.6e-4 of the closing speed and energy-loss error up to 2.3e-4 (on a machine loaded by other
+/// builds, 1.4e-3 and 3.1e-4); momentum still within 8.8e-16.
+#[test]
+#[ignore = "threaded + semi-implicit Euler under gravity: relative velocity off the closed form by up to 6.6e-4 (1.4e-3 loaded) of the closing speed, energy loss by 2.3e-4 (8e-13 and 3e-13 with leapfrog)"]
+fn threaded_oblique_collision_under_gravity_with_semi_implicit_euler() {
+    oblique_pairs(&[EngineKind::Threaded], true, DEFAULT, pair_bounds);
+}
+
+/// A column of three touching balls falling in mid-air, struck from above at 10 m/s and from
+/// the side at 6 m/s, and a fifth ball coming in obliquely; a witness falls alone. Nothing
+/// reaches a wall in 0.5 s.
+fn cluster() -> Vec<Spec> {
+    vec![
+        spec([50.0, 50.0], [0.0, 0.0], 1.0, 1.0),
+        spec([50.0, 51.0], [0.0, 0.0], 1.5, 1.0),
+        spec([50.0, 52.0], [0.0, 0.0], 2.0, 1.0),
+        spec([50.0, 54.0], [0.0, -10.0], 2.0, 1.0),
+        spec([48.2, 51.0], [6.0, 0.0], 0.7, 0.8),
+        spec([53.0, 49.0], [-4.0, 3.0], 1.0, 1.0),
+        spec([90.0, 90.0], [0.0, 0.0], 1.0, 1.0),
+    ]
+}
+
+/// The cluster's momentum is p₀ + M·g·t at e = 0.3 and e = 1 (t the balls' instant, the
+/// witness's), relative to the momentum scale Σ m·|v₀| + M·g·t, with the default integrator
+/// (momentum does not depend on it). Every ball but the witness is struck (its velocity off free
+/// flight by more than 0.5 m/s). Measured: lockstep 5.3e-15; exact 1.0e-16; threaded 0–9.2e-16.
+/// Seen to fail with (α).
+#[test]
+fn a_free_falling_cluster_keeps_p0_plus_mgt() {
+    let _s = serial();
+    let mut failures = Vec::new();
+    let start = cluster();
+    let n = start.len() - 1;
+    for kind in EngineKind::ALL {
+        for e in [0.3, 1.0] {
+            let s = scene(100.0, 100.0, 1.0, e, true, DEFAULT, &start);
+            let end = run(kind, &s, 0.5);
+            let t = witness_time(&end.balls[n]);
+            let mass: f64 = start[..n].iter().map(|b| b.m).sum();
+            let p0: DVec2 = start[..n].iter().map(|b| b.m * b.v).sum();
+            let p: DVec2 = end.balls[..n].iter().map(|b| b.mass * b.velocity).sum();
+            let scale = start[..n].iter().map(|b| b.m * b.v.length()).sum::<f64>() + mass * G * t;
+            let err = (p - (p0 + mass * DVec2::new(0.0, -G) * t)).length() / scale;
+            let struck = (0..n)
+                .filter(|&i| (end.balls[i].velocity - (start[i].v + DVec2::new(0.0, -G) * t)).length() > 0.5)
+                .count();
+            eprintln!(
+                "{kind} e {e}: momentum off p₀ + M·g·t by {err:.2e} of its scale; {struck} balls struck \
+                 (clock {:.4} s, balls at {t:.4} s)",
+                end.time
+            );
+            check!(failures, end.walls == 0.0, "{kind} e {e}: a ball reached a wall");
+            check!(failures, struck == n, "{kind} e {e}: only {struck} of {n} balls were struck");
+            check!(failures, err <= 1e-13, "{kind} e {e}: momentum off p₀ + M·g·t by {err:e}");
+        }
+    }
+    none_failed(failures);
+}
+
+/// The chain of binary impacts a ball A dropped onto a ball B resting on the floor goes through,
+/// one at a time (the sequential-impact model of tests/restitution.rs): A–B, then B–floor, then
+/// A–B again, … until nothing approaches. Velocities are vertical, up positive. Returns A's
+/// final velocity. (Lockstep's own test also softens the impacts slower than a few cm/s; in this
+/// chain only B's last bounce on the floor is that slow, and it no longer reaches A.) For equal
+/// masses at e = 0.8 it is 0.638 of the speed of arrival, against 0.8 off an immovable B.
+fn sequential_impacts(mut va: f64, mut vb: f64, ma: f64, mb: f64, e: f64, e_wall: f64) -> f64 {
+    for _ in 0..1000 {
+        if va - vb < 0.0 {
+            let j = -(1.0 + e) * (va - vb) / (1.0 / ma + 1.0 / mb);
+            va += j / ma;
+            vb -= j / mb;
+        } else if vb < 0.0 {
+            vb *= -e_wall;
+        } else {
+            break;
+        }
+    }
+    va
+}
+
+/// Drops A (1 kg, 1 m) from 1 m above B (1 kg, 1 m) resting on the floor, e = 0.8 for the balls
+/// and the walls (leapfrog: A's flight is exact), and returns A's measured and predicted
+/// rebound speeds and its velocity then. The measured speed is read 0.2 s after the impact, in
+/// flight, off A's energy: √(v² + 2·g·(y − y_contact)), so it needs no instant (the threaded
+/// engine's balls stand a little ahead of its clock).
+fn drop_on_resting_ball(kind: EngineKind) -> (f64, f64, f64) {
+    let (e, fall) = (0.8, 1.0);
+    let contact_y = 1.5;
+    let start = [spec([5.0, contact_y + fall], [0.0, 0.0], 1.0, 1.0), spec([5.0, 0.5], [0.0, 0.0], 1.0, 1.0)];
+    let s = scene(10.0, 20.0, e, e, true, LEAPFROG, &start);
+    let t_impact = (2.0 * fall / G).sqrt();
+    let end = run(kind, &s, t_impact + 0.2);
+    let a = &end.balls[0];
+    let measured = (a.velocity.y * a.velocity.y + 2.0 * G * (a.position.y - contact_y)).max(0.0).sqrt();
+    (measured, sequential_impacts(-(2.0 * G * fall).sqrt(), 0.0, 1.0, 1.0, e, e), a.velocity.y)
+}
+
+/// Checks the rebound of [`drop_on_resting_ball`] on each of `kinds` within `bound(kind)` m/s
+/// of the chain's, A still rising (the chain's rebound tops out 0.29 s after the impact).
+fn drops(kinds: &[EngineKind], bound: fn(EngineKind) -> f64) {
+    let _s = serial();
+    let mut failures = Vec::new();
+    for &kind in kinds {
+        let (measured, predicted, vy) = drop_on_resting_ball(kind);
+        let off = measured - predicted;
+        eprintln!("{kind}: A rebounds at {measured:.5} m/s, the chain predicts {predicted:.5} m/s ({off:+.5} m/s)");
+        check!(failures, vy > 0.0, "{kind}: A is not rising 0.2 s after the impact (at {vy} m/s)");
+        check!(
+            failures,
+            off.abs() <= bound(kind),
+            "{kind}: A rebounds at {measured} m/s, the chain predicts {predicted} m/s"
+        );
+    }
+    none_failed(failures);
+}
+
+/// The rebound matches the chain (2.826 m/s from an arrival at 4.429 m/s) within what a step or
+/// a ball cycle takes: the impact falls inside a step of dt = 1 ms (or a cycle of about that),
+/// and the struck ball B is taken at its end-of-step velocity, which the floor's support reaches
+/// only in the resting phase (tests/restitution.rs), so the approach is off by up to g·dt.
+/// Lockstep within g·dt = 0.0098 m/s (measured 0.0084 m/s low); threaded within 0.025 m/s
+/// (measured 0.0048–0.0156 m/s low, its cycles being of uneven length). Seen to fail with (α)
+/// (lockstep) and (β).
+#[test]
+fn a_ball_dropped_on_a_resting_ball_rebounds_as_sequential_impacts_predict() {
+    drops(&[EngineKind::Lockstep, EngineKind::Threaded], |kind| match kind {
+        EngineKind::Lockstep => G * 1e-3,
+        _ => 0.025,
+    });
+}
+
+/// The exact engine holds a ball at rest on its supports as immovable while an impulse is inside
+/// their cone (its rest model), so A rebounds off B as off the floor: at e times its speed of
+/// arrival, 0.8 × 4.429 = 3.5436 m/s (measured 3.54356 m/s, 0.718 m/s above the chain's
+/// 2.826 m/s).
+#[test]
+#[ignore = "exact engine: A rebounds at 3.5436 m/s (e·v, B held immovable by the rest model), the sequential-impact chain predicts 2.8260 m/s"]
+fn exact_ball_dropped_on_a_resting_ball_rebounds_as_sequential_impacts_predict() {
+    drops(&[EngineKind::Exact], |_| G * 1e-3);
+}
+
+/// A (1 kg, 1 m) flies along y = 10 at 5 m/s into B and C (1 kg, 1 m), which touch each other
+/// at (20, 10.5) and (20, 9.5), e = 0.7, no gravity; the balls are listed in the scene in
+/// `order` (so numbered differently each time). Returns the mirror error of B against C
+/// (position and velocity, m and m/s, the larger), A's sideways drift (speed and offset), B's
+/// speed (zero if nothing collided), and the impulse the walls took.
+fn strike_between(kind: EngineKind, order: [usize; 3]) -> (f64, f64, f64, f64) {
+    let balls = [
+        spec([18.0, 10.0], [5.0, 0.0], 1.0, 1.0),
+        spec([20.0, 10.5], [0.0, 0.0], 1.0, 1.0),
+        spec([20.0, 9.5], [0.0, 0.0], 1.0, 1.0),
+    ];
+    let listed: Vec<Spec> = order.iter().map(|&k| balls[k]).collect();
+    let s = scene(40.0, 20.0, 1.0, 0.7, false, DEFAULT, &listed);
+    let end = run(kind, &s, 0.5);
+    let at = |k: usize| &end.balls[order.iter().position(|&o| o == k).unwrap()];
+    let (a, b, c) = (at(0), at(1), at(2));
+    let mirror = |p: DVec2| DVec2::new(p.x, 20.0 - p.y);
+    let dx = (b.position - mirror(c.position)).length();
+    let dv = (b.velocity - DVec2::new(c.velocity.x, -c.velocity.y)).length();
+    (dx.max(dv), a.velocity.y.abs() + (a.position.y - 10.0).abs(), b.velocity.length(), end.walls)
+}
+
+/// Checks [`strike_between`] on each of `kinds` in three numberings: mirror error and A's
+/// sideways drift within `bound`.
+fn strikes(kinds: &[EngineKind], bound: fn(EngineKind) -> f64) {
+    let _s = serial();
+    let mut failures = Vec::new();
+    for &kind in kinds {
+        for order in [[0, 1, 2], [2, 0, 1], [1, 2, 0]] {
+            let (mirror, sideways, speed, walls) = strike_between(kind, order);
+            eprintln!(
+                "{kind} order {order:?}: mirror off by {mirror:.2e}, A sideways {sideways:.2e}, B at {speed:.4} m/s"
+            );
+            check!(failures, walls == 0.0, "{kind} order {order:?}: a ball reached a wall");
+            check!(failures, speed > 1.0, "{kind} order {order:?}: B was not struck (at {speed} m/s)");
+            check!(failures, mirror <= bound(kind), "{kind} order {order:?}: mirror off by {mirror:e}");
+            check!(failures, sideways <= bound(kind), "{kind} order {order:?}: A pushed sideways by {sideways:e}");
+        }
+    }
+    none_failed(failures);
+}
+
+/// B and C leave as mirror images, A straight on, in every numbering. Measured: lockstep 0 (the
+/// round's impulses are computed from the same velocities), A's drift 0; threaded 1.1e-14 to
+/// 8.2e-14 (positions of ~20 m: 3.6e-15 is one rounding), A's drift 0. Seen to fail with (γ).
+#[test]
+fn a_ball_striking_two_touching_balls_between_them_leaves_a_mirror_image() {
+    strikes(&[EngineKind::Lockstep, EngineKind::Threaded], |kind| match kind {
+        EngineKind::Lockstep => 1e-14,
+        _ => 1e-12,
+    });
+}
+
+/// The exact engine processes the two impacts of the same instant one after the other, in the
+/// order its calendar holds them: A strikes one of B and C first and is deflected (measured
+/// mirror error 1.56, A's sideways speed and offset 0.996, the same in every numbering; B leaves
+/// at 3.68 or 2.12 m/s depending on the numbering).
+#[test]
+#[ignore = "exact engine: simultaneous impacts processed one after the other; B and C mirror each other only to 1.56 (m, m/s), A pushed sideways by 0.996"]
+fn exact_ball_striking_two_touching_balls_between_them_leaves_a_mirror_image() {
+    strikes(&[EngineKind::Exact], |_| 1e-12);
+}
