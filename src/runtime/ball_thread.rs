@@ -384,9 +384,8 @@ const CROWDED_TURN: Duration = Duration::from_micros(50);
 ///   core (`sched_yield`) instead of sleeping, and update at each turn the scheduler gives, but
 ///   never sooner than half a cycle after the previous update. With a thousand threads on two
 ///   cores a ball waits for its turn anyway; a sleep adds a timer, a dequeue and a wake-up to
-///   every turn, and on this 2-core KVM guest that makes an update cost about 1.7× as much CPU
-///   (measured at 1,024 balls: about 5.5 µs against 3.3 µs an update; a bare C loop of 1,024
-///   threads doing nothing else: 4.4 µs against 1.3 µs). The yield only rotates the run queue.
+///   every turn, which makes an update cost well over the plain switch a yield is (the figures:
+///   docs/measurements.md, "Thread per ball"). The yield only rotates the run queue.
 ///   Ball threads are `SCHED_IDLE`, so yielding ones never take the CPU from the monitor, the
 ///   render loop or any other ordinary thread: those preempt them on wake-up.
 ///
@@ -394,8 +393,8 @@ const CROWDED_TURN: Duration = Duration::from_micros(50);
 /// queue: the cores are saturated); a crowded ball goes back to sleeping when a yield brings its
 /// turn back before it is due, or almost at once (`CROWDED_TURN`): the cores have time to spare,
 /// and spinning would burn it. (Tolerating one early turn before falling back was tried: no
-/// clear gain at 1,024 balls, and at 256–384 balls it kept balls yielding at ~1.5 cores where
-/// sleeping takes ~1.05.)
+/// clear gain at 1,024 balls, and at a few hundred balls it kept balls yielding at half as much
+/// CPU again as sleeping takes.)
 struct Waiter {
     epoch: Instant,
     cycle: Duration,
