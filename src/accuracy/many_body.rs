@@ -585,6 +585,12 @@ pub fn run(config: &ManyBodyConfig, mut progress: impl FnMut(&str)) -> Result<Ma
     Ok(report)
 }
 
+/// A log axis's label: the tick's value if it is a power of ten (to rounding), else nothing.
+fn power_of_ten_label(v: &f64) -> String {
+    let exponent = v.log10();
+    if (exponent - exponent.round()).abs() < 1e-6 { format!("{v:.0e}") } else { String::new() }
+}
+
 /// The least-squares slope of `(x, y)` points, if there are at least three.
 fn slope(pts: &[(f64, f64)]) -> Option<f64> {
     if pts.len() < 3 {
@@ -812,10 +818,11 @@ impl ManyBodyReport {
                 .configure_mesh()
                 .x_desc("wall time (s)")
                 .y_desc("error")
-                // Log-scale ticks are powers of ten computed in floating point (0.00999…): one
-                // significant figure names each.
-                .x_label_formatter(&|x| format!("{x:.0e}"))
-                .y_label_formatter(&|y| format!("{y:.0e}"))
+                // Log-scale ticks are computed in floating point (0.00999…), and a range under a
+                // decade gets ticks between powers of ten: only the powers are named, with one
+                // significant figure.
+                .x_label_formatter(&power_of_ten_label)
+                .y_label_formatter(&power_of_ten_label)
                 .draw()
                 .map_err(|e| e.to_string())?;
             for (engine, colour) in [
