@@ -218,8 +218,8 @@ impl std::fmt::Display for Theory {
 ///     order): 1 over a few orbits, towards 2 over a hundred: 1–2.
 /// - Projectile: order 1 for the two Euler methods; the others are exact.
 /// - Collisions: the engine finds a contact up to one step late and replays it from the instant
-///   of contact along the line of centres it sees then. Head-on, that line is the true one and
-///   the replay is exact (every method); oblique, it is turned by O(dt): order 1 for every method.
+///   of contact with the normal taken there, so the collision is exact at any angle; under
+///   gravity the two Euler methods keep their flight's order 1, the others are exact.
 pub fn theoretical_order(exact: &Exact, measure: Measure, integrator: Integrator) -> Option<Theory> {
     let p = integrator.order();
     match exact {
@@ -237,14 +237,10 @@ pub fn theoretical_order(exact: &Exact, measure: Measure, integrator: Integrator
         }
         Exact::DragFall(_) => Some(Theory::order(p)),
         Exact::Projectile { .. } => (p == 1).then_some(Theory::order(1)),
-        Exact::Collision(c) => {
-            // Head-on (relative velocity along the line of centres): the engine's replay from the
-            // instant of contact is exact. Oblique: the line of centres seen one step late is
-            // turned by O(dt), and so is the impulse.
-            let (dx, dv) = (c.start[1].0 - c.start[0].0, c.start[1].1 - c.start[0].1);
-            let head_on = dx.perp_dot(dv).abs() <= 1e-12 * dx.length() * dv.length();
-            (!head_on).then_some(Theory::order(1))
-        }
+        // The contact is replayed from its instant with the normal taken there, at any angle: the
+        // collision itself is exact, and what is left is the flight's own error, as for the
+        // projectile (none without gravity).
+        Exact::Collision(c) => (p == 1 && c.g != glam::DVec2::ZERO).then_some(Theory::order(1)),
     }
 }
 
