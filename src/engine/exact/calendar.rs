@@ -13,8 +13,8 @@
 //!
 //! This is the one-event-per-ball scheme of Rapaport's "The Art of Molecular Dynamics
 //! Simulation" (ch. 14), with counters standing in for its lists of events to delete. The tree
-//! holds the winner of each pair of subtrees (time, then owner) with its time beside it, so that
-//! an update compares along one path of ⌈log₂ n⌉ nodes reading only the siblings. The order is the one a heap of all events with lazy
+//! holds, at each node, the owner of the earliest event below it (time, then owner), so that an
+//! update compares along one path of ⌈log₂ n⌉ nodes, reading only the siblings and their times. The order is the one a heap of all events with lazy
 //! invalidation gives its live events (earliest first; simultaneous events by owner): a ball has
 //! one live event at a time, so the owner breaks every tie.
 
@@ -82,20 +82,6 @@ impl Slot {
     }
 }
 
-/// A node of the tree: the earliest event below it, as its time's bits above its owner, so that
-/// one integer comparison (without a branch) orders two nodes by time, then owner.
-type Node = u128;
-
-const NO_NODE: Node = u128::MAX;
-
-fn node(time: u64, owner: u32) -> Node {
-    (time as u128) << 32 | owner as u128
-}
-
-fn node_time(n: Node) -> u64 {
-    (n >> 32) as u64
-}
-
 /// What the calendar counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CalendarStats {
@@ -113,9 +99,12 @@ pub struct CalendarStats {
 #[derive(Clone, Debug, Default)]
 pub struct Calendar {
     slots: Vec<Slot>,
-    /// `tree[1]` is the root, `tree[k]` the earlier of `tree[2k]` and `tree[2k + 1]`; the leaves
-    /// `tree[leaves + i]` are the slots' times. Unused leaves are empty.
-    tree: Vec<Node>,
+    /// Per leaf, the time of its ball's event (the slot's, beside the others, for the tree's
+    /// comparisons); [`NONE`] where it has none, and for the leaves beyond the last ball.
+    times: Vec<u64>,
+    /// The winners by owner: `tree[leaves + i] = i` for every leaf, and for `1 ≤ k < leaves`,
+    /// `tree[k]` the earlier of `tree[2k]` and `tree[2k + 1]` (`tree[1]`: the earliest of all).
+    tree: Vec<u32>,
     leaves: usize,
     /// Events held.
     len: usize,
@@ -137,8 +126,14 @@ impl Calendar {
         self.leaves = balls.max(1).next_power_of_two();
         self.slots.clear();
         self.slots.resize(balls, EMPTY);
+        self.times.clear();
+        self.times.resize(self.leaves, NONE);
+        // Every subtree's winner is its first leaf while all are empty (ties go left).
         self.tree.clear();
-        self.tree.resize(2 * self.leaves, NO_NODE);
+        self.tree.resize(2 * self.leaves, 0);
+        for k in (1..2 * self.leaves).rev() {
+            self.tree[k] = if k >= self.leaves { (k - self.leaves) as u32 } else { self.tree[2 * k] };
+        }
         self.len = 0;
         self.taken = None;
     }
@@ -148,23 +143,37 @@ impl Calendar {
         self.len
     }
 
-    /// Sets ball `owner`'s leaf to `node` and brings the winners on its path up to date.
+    /// Sets ball `owner`'s time to `time` and brings the winners on its path up to date.
+    ///
+    /// At each node the winner so far meets the winner of the sibling subtree; on equal times the
+    /// left one wins (its owners are the lower ones), so the order is time, then owner. The
+    /// choice is made with masks, not a branch: which of two events is earlier is as good as a
+    /// coin toss for the branch predictor.
     #[inline]
-    fn update(&mut self, owner: usize, leaf: Node) {
-        assert!(owner < self.leaves && self.tree.len() == 2 * self.leaves);
-        let tree = self.tree.as_mut_ptr();
-        let mut k = self.leaves + owner;
-        let mut win = leaf;
+    fn update(&mut self, owner: usize, time: u64) {
+        let leaves = self.leaves;
+        assert!(owner < leaves && self.times.len() == leaves && self.tree.len() == 2 * leaves);
+        let (tree, times) = (self.tree.as_mut_ptr(), self.times.as_mut_ptr());
+        let mut k = leaves + owner;
+        let (mut win, mut t) = (owner as u64, time);
         // SAFETY: `k` starts at a leaf, below `2·leaves`, the tree's length (asserted above), and
-        // only falls; `k ^ 1`, its sibling, is below the same bound. Every access is through the
-        // one pointer taken from `&mut self.tree`, which nothing else borrows meanwhile. (The
-        // bounds checks this saves cost 4 % of the engine's instructions in the gas bench.)
+        // only falls; `k ^ 1`, its sibling, is below the same bound. Every entry of the tree is
+        // an owner below `leaves`, the length of `times` (asserted): `reset` writes only such,
+        // and this loop only copies them. Every access is through the two pointers taken from
+        // `&mut self`, which nothing else borrows meanwhile. (The bounds checks this saves cost
+        // 4 % of the engine's instructions in the gas bench.)
         unsafe {
-            *tree.add(k) = leaf;
+            *times.add(owner) = time;
             while k > 1 {
-                win = win.min(*tree.add(k ^ 1));
+                let s = *tree.add(k ^ 1) as u64;
+                let ts = *times.add(s as usize);
+                // The sibling wins if earlier, or as early and on the left (`k` odd).
+                let take = (ts < t) as u64 | ((ts == t) as u64 & (k as u64 & 1));
+                let mask = take.wrapping_neg();
+                t = (ts & mask) | (t & !mask);
+                win = (s & mask) | (win & !mask);
                 k /= 2;
-                *tree.add(k) = win;
+                *tree.add(k) = win as u32;
             }
         }
     }
@@ -173,7 +182,7 @@ impl Calendar {
     #[inline]
     fn settle_taken(&mut self) {
         if let Some(i) = self.taken.take() {
-            self.update(i as usize, NO_NODE);
+            self.update(i as usize, NONE);
         }
     }
 
@@ -193,7 +202,7 @@ impl Calendar {
             self.stats.superseded += 1;
         }
         self.slots[i] = slot;
-        self.update(i, node(slot.time, event.owner));
+        self.update(i, slot.time);
         self.stats.pushed += 1;
         self.stats.peak_len = self.stats.peak_len.max(self.len);
     }
@@ -207,7 +216,7 @@ impl Calendar {
             self.stats.superseded += 1;
             self.len -= 1;
             self.slots[i] = EMPTY;
-            self.update(i, NO_NODE);
+            self.update(i, NONE);
         }
     }
 
@@ -215,7 +224,7 @@ impl Calendar {
     #[inline]
     pub fn next_time(&mut self) -> Option<f64> {
         self.settle_taken();
-        let root = node_time(self.tree[1]);
+        let root = self.times[self.tree[1] as usize];
         (root != NONE).then(|| f64::from_bits(root))
     }
 
@@ -223,16 +232,15 @@ impl Calendar {
     #[inline]
     pub fn pop(&mut self) -> Option<Event> {
         self.settle_taken();
-        let root = self.tree[1];
-        if node_time(root) == NONE {
+        let owner = self.tree[1];
+        let i = owner as usize;
+        if self.times[i] == NONE {
             return None;
         }
-        let owner = root as u32;
-        let i = owner as usize;
         let event = self.slots[i].unpack(owner);
         self.slots[i] = EMPTY;
         self.len -= 1;
-        self.tree[self.leaves + i] = NO_NODE;
+        self.times[i] = NONE;
         self.taken = Some(owner);
         Some(event)
     }
