@@ -47,17 +47,21 @@ const CELL_CODE: u32 = u32::MAX - 8;
 /// The time of an empty slot: above every time's bits (an infinite time is `0x7ff0…`).
 const NONE: u64 = u64::MAX;
 
-/// A ball's slot: its event's time as bits (which order as the times do for the non-negative
-/// times of a calendar; a `-0.0` is made `+0.0`), the partner's code (a ball's index, or
-/// [`WALL_CODE`] / [`CELL_CODE`] + side) and the partner ball's course counter.
+/// A ball's slot, beside its event's time (in [`Calendar`]'s `times`): the partner's code (a
+/// ball's index, or [`WALL_CODE`] / [`CELL_CODE`] + side) and the partner ball's course counter.
 #[derive(Clone, Copy, Debug)]
 struct Slot {
-    time: u64,
     code: u32,
     count: u32,
 }
 
-const EMPTY: Slot = Slot { time: NONE, code: 0, count: 0 };
+const EMPTY: Slot = Slot { code: 0, count: 0 };
+
+/// An event's time as bits, which order as the times do for the non-negative times of a
+/// calendar (a `-0.0` is made `+0.0`).
+fn time_bits(t: f64) -> u64 {
+    (t + 0.0).to_bits()
+}
 
 impl Slot {
     fn pack(e: &Event) -> Slot {
@@ -66,10 +70,10 @@ impl Slot {
             Partner::Wall(w) => (WALL_CODE + w as u32, 0),
             Partner::Cell(c) => (CELL_CODE + c as u32, 0),
         };
-        Slot { time: (e.time + 0.0).to_bits(), code, count }
+        Slot { code, count }
     }
 
-    fn unpack(self, owner: u32) -> Event {
+    fn unpack(self, owner: u32, time: u64) -> Event {
         let code = self.code;
         let partner = if code >= CELL_CODE {
             Partner::Cell((code - CELL_CODE) as u8)
@@ -78,7 +82,7 @@ impl Slot {
         } else {
             Partner::Ball(code, self.count)
         };
-        Event { time: f64::from_bits(self.time), owner, partner }
+        Event { time: f64::from_bits(time), owner, partner }
     }
 }
 
@@ -99,8 +103,8 @@ pub struct CalendarStats {
 #[derive(Clone, Debug, Default)]
 pub struct Calendar {
     slots: Vec<Slot>,
-    /// Per leaf, the time of its ball's event (the slot's, beside the others, for the tree's
-    /// comparisons); [`NONE`] where it has none, and for the leaves beyond the last ball.
+    /// Per leaf, the time of its ball's event as [`time_bits`]; [`NONE`] where it has none, and
+    /// for the leaves beyond the last ball.
     times: Vec<u64>,
     /// The winners by owner: `tree[leaves + i] = i` for every leaf, and for `1 ≤ k < leaves`,
     /// `tree[k]` the earlier of `tree[2k]` and `tree[2k + 1]` (`tree[1]`: the earliest of all).
@@ -195,14 +199,13 @@ impl Calendar {
         } else {
             self.settle_taken();
         }
-        let slot = Slot::pack(&event);
-        if self.slots[i].time == NONE {
+        if self.times[i] == NONE {
             self.len += 1;
         } else {
             self.stats.superseded += 1;
         }
-        self.slots[i] = slot;
-        self.update(i, slot.time);
+        self.slots[i] = Slot::pack(&event);
+        self.update(i, time_bits(event.time));
         self.stats.pushed += 1;
         self.stats.peak_len = self.stats.peak_len.max(self.len);
     }
@@ -212,10 +215,9 @@ impl Calendar {
     pub fn remove(&mut self, owner: u32) {
         self.settle_taken();
         let i = owner as usize;
-        if self.slots[i].time != NONE {
+        if self.times[i] != NONE {
             self.stats.superseded += 1;
             self.len -= 1;
-            self.slots[i] = EMPTY;
             self.update(i, NONE);
         }
     }
@@ -234,11 +236,11 @@ impl Calendar {
         self.settle_taken();
         let owner = self.tree[1];
         let i = owner as usize;
-        if self.times[i] == NONE {
+        let time = self.times[i];
+        if time == NONE {
             return None;
         }
-        let event = self.slots[i].unpack(owner);
-        self.slots[i] = EMPTY;
+        let event = self.slots[i].unpack(owner, time);
         self.len -= 1;
         self.times[i] = NONE;
         self.taken = Some(owner);
