@@ -250,10 +250,10 @@ mod tests {
                 lists[old].swap_remove(k);
                 lists[new].push(i as u32);
             }
-            for c in 0..16 {
+            for (c, list) in lists.iter().enumerate() {
                 let mut got = Vec::new();
                 cells.for_each_in(c, &mut |j| got.push(j as u32));
-                assert_eq!(got, lists[c], "cell {c}");
+                assert_eq!(&got, list, "cell {c}");
             }
         }
         // The walk used the spill lists both ways.
