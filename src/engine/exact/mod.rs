@@ -50,15 +50,13 @@ pub struct ExactStats {
     pub events_per_second: f64,
     /// Collisions per second of wall-clock time spent processing events.
     pub collisions_per_second: f64,
-    /// Events dropped from the calendar because a newer prediction of their owner superseded
-    /// them.
+    /// Events overwritten in the calendar by a newer prediction of their owner before they came
+    /// up.
     pub invalidated_superseded: u64,
-    /// Events dropped because their partner's course changed (the owner then predicted again).
+    /// Events that came up with their partner's course changed (the owner then predicted again).
     pub invalidated_partner: u64,
-    /// Largest number of events the calendar held.
+    /// Largest number of events the calendar held (at most one per ball).
     pub calendar_peak: usize,
-    /// Times the calendar was rebuilt from its live events.
-    pub calendar_compactions: u64,
     /// Balls at rest at the end.
     pub at_rest: usize,
     /// Balls sliding on a wall at the end.
@@ -179,10 +177,9 @@ impl ExactEngine {
             counters: c,
             events_per_second: per(events),
             collisions_per_second: per(c.collisions),
-            invalidated_superseded: cal.stale_owner,
+            invalidated_superseded: cal.superseded,
             invalidated_partner: cal.stale_partner,
             calendar_peak: cal.peak_len,
-            calendar_compactions: cal.compactions,
             at_rest,
             sliding,
             params: self.world.params(),

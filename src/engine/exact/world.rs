@@ -294,10 +294,8 @@ impl Contact {
 pub struct World {
     hot: Vec<Hot>,
     cold: Vec<Cold>,
-    /// Per ball: its course counter (up at every change of course) and its prediction serial
-    /// (up at every prediction), see `calendar.rs`.
+    /// Per ball: its course counter (up at every change of course), see `calendar.rs`.
     count: Vec<u32>,
-    serial: Vec<u32>,
     /// Per ball: the earliest collision of its last prediction (see [`World::predict_crossed`]).
     memo: Vec<Memo>,
     cells: Cells,
@@ -362,7 +360,6 @@ impl World {
             hot: Vec::new(),
             cold: Vec::new(),
             count: Vec::new(),
-            serial: Vec::new(),
             memo: Vec::new(),
             cells: Cells::default(),
             calendar: Calendar::new(),
@@ -408,7 +405,6 @@ impl World {
             at_instant: 0,
         });
         self.count.push(0);
-        self.serial.push(0);
         self.memo.push(Memo::default());
         self.mark.push(0);
     }
@@ -450,7 +446,7 @@ impl World {
         self.calendar.stats
     }
 
-    /// Events waiting in the calendar, live or dropped-to-be.
+    /// Events waiting in the calendar (at most one per ball).
     pub fn calendar_len(&self) -> usize {
         self.calendar.len()
     }
@@ -503,14 +499,14 @@ impl World {
         w
     }
 
-    /// Debugging: every ball's motion and state, and the calendar's earliest events.
+    /// Debugging: every ball's motion and state, and how many events the calendar holds.
     pub fn dump(&self) -> String {
         let mut out = String::new();
         for i in 0..self.len() {
             let (x, v) = self.at(i);
             out += &format!("{i} {:?} x={x:?} v={v:?} a={:?}\n", self.cold[i].motion, self.hot[i].a);
         }
-        out += &format!("calendar len {} next {:?}\n", self.calendar.len(), self.calendar.next_time());
+        out += &format!("calendar len {}\n", self.calendar.len());
         out
     }
 
@@ -593,7 +589,7 @@ impl World {
         self.cells = Cells::new(self.field.width, self.field.height, largest, self.len());
         self.cells.fill(self.hot.iter().map(|h| h.x));
         self.separate_overlaps();
-        self.calendar.clear();
+        self.calendar.reset(self.len());
         for i in 0..self.len() {
             self.predict(i);
         }
@@ -697,9 +693,9 @@ impl World {
     }
 
     fn predict_from(&mut self, i: usize, crossed: Option<u8>) {
-        // A new serial even for a ball at rest: whatever it had in the calendar is superseded.
-        self.serial[i] = self.serial[i].wrapping_add(1);
         if self.cold[i].motion == Motion::Resting {
+            // Whatever it had in the calendar is superseded: a ball at rest has no event.
+            self.calendar.remove(i as u32);
             return;
         }
         self.counters.predictions += 1;
@@ -781,8 +777,9 @@ impl World {
             }
             self.memo[i] = found;
         }
-        if let Some(p) = partner {
-            self.calendar.push(Event { time: self.now + best, owner: i as u32, serial: self.serial[i], partner: p });
+        match partner {
+            Some(p) => self.calendar.push(Event { time: self.now + best, owner: i as u32, partner: p }),
+            None => self.calendar.remove(i as u32),
         }
     }
 
@@ -825,10 +822,6 @@ impl World {
     fn step(&mut self) {
         let Some(ev) = self.calendar.pop() else { return };
         let i = ev.owner as usize;
-        if ev.serial != self.serial[i] {
-            self.calendar.stats.stale_owner += 1;
-            return;
-        }
         self.now = self.now.max(ev.time);
         match ev.partner {
             Partner::Ball(j, cj) => {
@@ -846,8 +839,6 @@ impl World {
                 self.predict_crossed(i, s);
             }
         }
-        let (serial, balls) = (&self.serial, self.hot.len());
-        self.calendar.compact(balls, |e| e.serial == serial[e.owner as usize]);
     }
 
     /// A changed course: a new counter, a new acceleration, a new event.
@@ -1710,7 +1701,6 @@ impl World {
         self.hot.clear();
         self.cold.clear();
         self.count.clear();
-        self.serial.clear();
         self.memo.clear();
         self.mark.clear();
         for b in balls {
