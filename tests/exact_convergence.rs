@@ -17,21 +17,13 @@
 //! balls then fly apart too fast and reach a wall: the check that the exact runs are what the test
 //! means fails first).
 
+mod common;
+
 use ballfield::Lockstep;
 use ballfield::engine::{Engine, ExactEngine, Placement};
-use ballfield::physics::{Ball, BallId, BallKind, Collisions, Effects, Field, Integrator};
+use ballfield::physics::{Ball, Collisions, Effects, Field, Integrator};
+use common::ball;
 use glam::DVec2;
-
-fn ball(id: u32, x: f64, y: f64, vx: f64, vy: f64, mass: f64, diameter: f64) -> Ball {
-    Ball {
-        id: BallId(id),
-        kind: BallKind::Ball,
-        position: DVec2::new(x, y),
-        velocity: DVec2::new(vx, vy),
-        mass,
-        diameter,
-    }
-}
 
 const T_END: f64 = 3.0;
 

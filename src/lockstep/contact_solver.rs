@@ -598,7 +598,7 @@ where
 
 /// Splits the two slot-ordered arrays into the disjoint, increasing runs given, returning each
 /// run's first slot with its sub-slices.
-fn split_runs<'a>(
+pub(super) fn split_runs<'a>(
     mut x: &'a mut [DVec2],
     mut v: &'a mut [DVec2],
     runs: &[Range<usize>],

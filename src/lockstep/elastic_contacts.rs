@@ -31,6 +31,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::PARALLEL_MIN_PAIRS;
+use super::contact_solver::split_runs;
 use crate::physics::{BallId, Bodies, BroadPhase, ContactBody, contact_ball_ball};
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes).
@@ -209,27 +210,6 @@ impl ElasticContacts {
         });
         impulses
     }
-}
-
-/// Splits the two slot-ordered arrays into the disjoint, increasing runs given, returning each
-/// run's first slot with its sub-slices.
-fn split_runs<'a>(
-    mut x: &'a mut [DVec2],
-    mut v: &'a mut [DVec2],
-    runs: &[Range<usize>],
-) -> Vec<(usize, &'a mut [DVec2], &'a mut [DVec2])> {
-    let mut parts = Vec::with_capacity(runs.len());
-    let mut at = 0;
-    for run in runs {
-        debug_assert!(run.start >= at && run.end >= run.start);
-        let (_, rest_x) = std::mem::take(&mut x).split_at_mut(run.start - at);
-        let (_, rest_v) = std::mem::take(&mut v).split_at_mut(run.start - at);
-        let (part_x, rest_x) = rest_x.split_at_mut(run.len());
-        let (part_v, rest_v) = rest_v.split_at_mut(run.len());
-        parts.push((run.start, part_x, part_v));
-        (x, v, at) = (rest_x, rest_v, run.end);
-    }
-    parts
 }
 
 /// One pass over `pairs`. `index(k)` maps a slot to (index into `fixed`, index into `x`/`v`).
