@@ -90,7 +90,7 @@ impl Pass {
                 restitution: collisions.restitution,
                 field: scene.field,
                 span: SPAN,
-                drift: resting_drift(Integrator::SemiImplicitEuler),
+                drift: resting_drift(Integrator::SemiImplicitEuler, 1),
             },
             gravity,
             jitter: jittered.then_some(1),

@@ -561,7 +561,8 @@ impl Lockstep {
                 restitution: collisions.restitution,
                 field: &self.field,
                 span: h,
-                drift: resting_drift(self.integrator),
+                // Contacts are solved after every sub-step, each one step of the integrator.
+                drift: resting_drift(self.integrator, 1),
                 tolerances: Tolerances::new(largest, h),
                 gravity,
                 key,

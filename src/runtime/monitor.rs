@@ -5,8 +5,13 @@
 //! (`attraction_tree.rs`). It never writes a ball's state.
 //!
 //! **A pass.** The pass instant `t` is the runtime clock now (see `Shared::clock`). The pass
-//! judges the span from where the last pass stopped to `t + HORIZON`: consecutive passes judge
-//! consecutive spans, each once, as lockstep's steps do, a horizon ahead of the balls. Every ball
+//! judges the span from where the last pass stopped to about `t + HORIZON`, in whole monitor
+//! periods (see [`Monitor::span_end`]): consecutive passes judge consecutive spans, each once, as
+//! lockstep's steps do, a horizon ahead of the balls. Why whole periods: the resting solve
+//! starts from the last span's impulses taken as forces, and a pile's contacts share its weight
+//! in many ways; with spans that followed the monitor's wake-ups (0.3 to 3.7 ms around a pause,
+//! 0.5 to 1.5 ms on a busy machine) its passes stopped converging, and a settled pile kept moving
+//! at a few mm/s (a pure replay of the solver over such spans: `tests/contact_spans.rs`). Every ball
 //! is taken from its own record (each is of its own instant), with the contact messages it has
 //! not applied yet added as it will apply them, and carried in free motion (its published uniform
 //! acceleration: gravity, the pull) to the end of the span. The contact solver then solves every
@@ -198,11 +203,20 @@ impl<'a> Monitor<'a> {
         let high = self.read_table();
         // The tree first: the balls get the fresher field sooner.
         self.publish_tree(high);
-        let end = (self.t_pass + self.horizon_ns).max(self.judged);
+        let end = self.span_end();
         self.judge_contacts(end, &inboxes);
         // Release: every message of this pass was sent before (see `Shared::horizon`).
         self.judged = end;
         self.shared.horizon.store(end, Ordering::Release);
+    }
+
+    /// Where this pass's span ends: whole periods on from where the judged time ends, as many as
+    /// bring the horizon nearest to [`HORIZON_PERIODS`] ahead of the pass instant (none if it is
+    /// still half a period or more ahead of that).
+    fn span_end(&self) -> u64 {
+        let wanted = self.t_pass + self.horizon_ns;
+        let periods = (wanted.saturating_sub(self.judged) + self.period_ns / 2) / self.period_ns;
+        self.judged + periods * self.period_ns
     }
 
     /// Re-reads the parameters if their generation moved. They change rarely (panel, hotkeys):
@@ -292,7 +306,15 @@ impl<'a> Monitor<'a> {
                 restitution: collisions.restitution,
                 field: params.field,
                 span,
-                drift: resting_drift(params.integrator),
+                // The balls cross the span as `Motion::advance` does: resting ones (no drag to
+                // speak of) in the sub-steps its length alone asks for.
+                drift: resting_drift(
+                    params.integrator,
+                    StepPolicy::new(span)
+                        .with_max_step(self.shared.config.max_step)
+                        .split(span, &SpanRates::default())
+                        .count,
+                ),
             },
         };
         self.contacts.run(self.shared, inboxes, &self.records, &setting);

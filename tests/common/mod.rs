@@ -86,3 +86,42 @@ pub fn wait_until(timeout: Duration, mut done: impl FnMut() -> bool) -> bool {
 pub fn momentum_of(records: &[BallRecord]) -> DVec2 {
     records.iter().map(|r| r.ball.momentum()).sum()
 }
+
+/// 150 balls of 1 m and 1 kg dropped from up to 12 m into a 14 m wide box, everything at
+/// e = 0.8, gravity and air drag: the shipped `pile` but a seventh of it.
+pub const SMALL_PILE: &str = r#"
+name = "small-pile"
+[field]
+width = 14.0
+height = 20.0
+restitution = 0.8
+[simulation]
+seed = 3
+[effects]
+collisions = { restitution = 0.8 }
+gravity = { g = [0.0, -9.81] }
+drag = { model = "quadratic", rho = 1.225, cd = 0.47 }
+[[generate]]
+count = 150
+diameter = 1.0
+mass = 1.0
+speed = 1.0
+layout = "lattice"
+gap = 0.2
+region = [0.0, 4.0, 14.0, 20.0]
+"#;
+
+/// The small pile as dropped (see [`SMALL_PILE`]).
+pub fn small_pile() -> ballfield::Scene {
+    ballfield::Scene::from_toml_str(SMALL_PILE, &ballfield::scene::Origin("test".into())).unwrap()
+}
+
+/// The small pile after 15 s on lockstep (dt = 1 ms), when it has settled (its kinetic energy
+/// about 1e-8 J), as a scene of its balls; and the lockstep engine that settled it.
+pub fn settled_small_pile() -> (ballfield::Scene, Lockstep) {
+    let mut scene = small_pile();
+    let mut l = Lockstep::new(&scene);
+    l.run(15_000);
+    scene.balls = (0..l.bodies().len()).map(|i| l.bodies().get(i)).collect();
+    (scene, l)
+}
