@@ -99,6 +99,22 @@ fn report(label: &str, r: &Replay) -> f64 {
     largest
 }
 
+/// Asserts that `replay` (2,000 spans) rested as the pile does over 2,000 fixed spans of 1 ms
+/// (the lockstep case): the largest kinetic energy of its second half within 3 times theirs and
+/// below 1e-6 J (every ball at 0.12 mm/s), the floor carrying the weight to 1e-4.
+fn rests_as_over_fixed_spans(pile: &Bodies, field: ballfield::physics::Field, label: &str, replayed: &Replay) {
+    let fixed = replay(pile, field, 2000, |_| 1e-3, semi_implicit);
+    let reference = report("fixed 1 ms", &fixed);
+    let largest = report(label, replayed);
+    assert!(largest < 3.0 * reference, "{label}: {largest} J against {reference} J over fixed spans");
+    assert!(largest < 1e-6, "{label}: {largest} J");
+    assert!(
+        (replayed.floor_ratio - 1.0).abs() < 1e-4,
+        "{label}: the floor took {} of the weight",
+        replayed.floor_ratio
+    );
+}
+
 /// Over 2,000 spans of 1 ms with one in four of 2 ms and one in 97 of 3 ms (a monitor that wakes
 /// late now and then), the settled pile moves no more than over 2,000 fixed 1 ms spans (the
 /// lockstep case): the largest kinetic energy of the second half within 3 times, and below 1e-6
@@ -112,7 +128,6 @@ fn report(label: &str, r: &Replay) -> f64 {
 fn a_settled_pile_rests_over_spans_of_whole_periods() {
     let (scene, lockstep) = common::settled_small_pile();
     let pile = lockstep.bodies();
-    let fixed = replay(pile, scene.field, 2000, |_| 1e-3, semi_implicit);
     let whole = replay(
         pile,
         scene.field,
@@ -128,11 +143,7 @@ fn a_settled_pile_rests_over_spans_of_whole_periods() {
         },
         semi_implicit,
     );
-    let reference = report("fixed 1 ms", &fixed);
-    let largest = report("whole periods", &whole);
-    assert!(largest < 3.0 * reference, "{largest} J against {reference} J over fixed spans");
-    assert!(largest < 1e-6, "{largest} J");
-    assert!((whole.floor_ratio - 1.0).abs() < 1e-4, "the floor took {} of the weight", whole.floor_ratio);
+    rests_as_over_fixed_spans(pile, scene.field, "whole periods", &whole);
 }
 
 /// The drift of semi-implicit Euler (the runtime's default) over `substeps`.
@@ -153,7 +164,6 @@ fn semi_implicit(substeps: u32) -> f64 {
 fn a_settled_pile_rests_over_late_spans_crossed_in_sub_steps() {
     let (scene, lockstep) = common::settled_small_pile();
     let pile = lockstep.bodies();
-    let fixed = replay(pile, scene.field, 2000, |_| 1e-3, semi_implicit);
     let late = replay(
         pile,
         scene.field,
@@ -161,9 +171,5 @@ fn a_settled_pile_rests_over_late_spans_crossed_in_sub_steps() {
         |k| if k % 100 == 50 { [4e-3, 10e-3, 19e-3][(k / 100) % 3] } else { 1e-3 },
         semi_implicit,
     );
-    let reference = report("fixed 1 ms", &fixed);
-    let largest = report("late spans", &late);
-    assert!(largest < 3.0 * reference, "{largest} J against {reference} J over fixed spans");
-    assert!(largest < 1e-6, "{largest} J");
-    assert!((late.floor_ratio - 1.0).abs() < 1e-4, "the floor took {} of the weight", late.floor_ratio);
+    rests_as_over_fixed_spans(pile, scene.field, "late spans", &late);
 }
