@@ -214,7 +214,8 @@ fn a_dropped_pile_comes_to_rest_and_its_floor_carries_it() {
 /// and watched for 5 s: floor within 5 %, overlaps within 2 %, moving at less than 2 mm/s on
 /// average. Heavy (half a minute of both cores, and it needs them: ball threads take only the CPU
 /// nothing else wants), so ignored in the suite; `scripts/threaded-contacts.sh pile` measures the
-/// same with the headless report.
+/// same with the headless report. Measured (one run, an idle machine): floor 1.00001, overlap
+/// 0.50 %, kinetic 1.3e-6 to 4.0e-5 J over the five reads (1.1e-5 J at 25 s; lockstep 1.4e-6 J).
 #[test]
 #[ignore]
 fn the_shipped_pile_comes_to_rest_and_its_floor_carries_it() {
