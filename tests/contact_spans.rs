@@ -24,12 +24,13 @@ struct Replay {
     unconverged: usize,
 }
 
-/// The runtime's longest sub-step (`RuntimeConfig::max_step`): a span crosses in as many.
-const MAX_STEP: f64 = 0.002;
+/// The monitor's period (`RuntimeConfig::monitor_period`): the balls cross a span in pieces of
+/// one period (its grid), each one sub-step (shorter than `RuntimeConfig::max_step`, 2 ms).
+const PERIOD: f64 = 0.001;
 
 /// Replays `spans` solves over the settled small pile, the `k`-th over `span(k)` seconds, its
-/// free motion in sub-steps of at most [`MAX_STEP`] as the ball threads take it, and the resting
-/// drift the solver is told from `drift(sub-steps)`.
+/// free motion in steps of at most [`PERIOD`] as the ball threads take it, and the resting drift
+/// the solver is told from `drift(steps)`.
 fn replay(
     pile: &Bodies,
     field: ballfield::physics::Field,
@@ -45,7 +46,7 @@ fn replay(
     let mut kinetic = Vec::new();
     for k in 0..spans {
         let h = span(k);
-        let substeps = (h / MAX_STEP).ceil().max(1.0) as u32;
+        let substeps = (h / PERIOD - 1e-9).ceil().max(1.0) as u32;
         let sub = h / f64::from(substeps);
         for _ in 0..substeps {
             for i in 0..n {
@@ -121,7 +122,7 @@ fn rests_as_over_fixed_spans(pile: &Bodies, field: ballfield::physics::Field, la
 /// J (every ball at 0.12 mm/s); the floor carries the weight to 1e-4.
 ///
 /// Measured: fixed spans 5.8e-7 J at most in the second half (the solver starts cold, as the
-/// runtime's does); whole periods 3.0e-7 J; floor 1.000000 for both. Seen to fail with spans
+/// runtime's does); whole periods 2.0e-7 J; floor 1.000000 for both. Seen to fail with spans
 /// that follow the wake-ups instead (0.5 to 1.5 ms, as the monitor judged before it took whole
 /// periods): 1.5e-3 J, every one of the 2,000 solves unconverged.
 #[test]
@@ -152,12 +153,12 @@ fn semi_implicit(substeps: u32) -> f64 {
 }
 
 /// Once in every 100 spans of 1 ms, a span of 4, 10 or 19 ms (a monitor woken that late, judging
-/// the time it missed in one solve, which its balls cross in 2 to 10 sub-steps): the settled pile
+/// the time it missed in one solve, which its balls cross in 4 to 19 steps): the settled pile
 /// still rests, the largest kinetic energy of the second half within 3 times that over fixed
 /// spans and below 1e-6 J, the floor carrying the weight to 1e-4.
 ///
-/// Measured: 6.5e-7 J against 5.8e-7 J over fixed spans, floor 1.000000. Seen to fail with the
-/// drift of one sub-step for every span (as the monitor had it): 7.8e-3 J, 1,998 of 2,000 solves
+/// Measured: 3.9e-7 J against 5.8e-7 J over fixed spans, floor 1.000001. Seen to fail with the
+/// drift of one step for every span (as the monitor had it): 1.7e-2 J, all 2,000 solves
 /// unconverged — each long span sank the pile by `g·h²·(n − 1)/2n` against its floor, and its
 /// resting solve took hundreds of spans to recover.
 #[test]

@@ -50,11 +50,7 @@ const G: f64 = 9.81;
 /// The scenes' default integrator, the one a player gets.
 const DEFAULT: &str = "semi-implicit-euler";
 /// Exact for free flight under uniform gravity at any step (drift–kick–drift): under gravity
-/// the flight then adds no error of its own, and whatever is off is the contacts'. (The threaded
-/// engine's ball cycles are of uneven length, and semi-implicit Euler's flight strays from the
-/// parabola by ½·g·Σh² over steps h: two balls with different cycle histories no longer move
-/// in a straight line relative to each other; see
-/// `threaded_oblique_collision_under_gravity_with_semi_implicit_euler`.)
+/// the flight then adds no error of its own, and whatever is off is the contacts'.
 const LEAPFROG: &str = "leapfrog";
 
 /// Notes a failed check and goes on, so that one run shows every engine's and every case's
@@ -280,26 +276,18 @@ fn an_oblique_collision_under_gravity_matches_the_closed_form() {
     oblique_pairs(&EngineKind::ALL, true, LEAPFROG, pair_bounds);
 }
 
-/// The same with the default integrator, semi-implicit Euler, in the engines whose balls all
-/// take the same steps (the exact engine has no steps). Measured: lockstep 3.0e-13 and 1.2e-13;
-/// exact as with leapfrog.
+/// The same with the default integrator, semi-implicit Euler, on every engine (the exact engine
+/// has no steps; the threaded engine's balls cut their steps at the monitor's grid of whole
+/// periods, so every ball takes the same steps, as in lockstep). Measured: lockstep 3.0e-13 and
+/// 1.2e-13; exact as with leapfrog; threaded 9.4e-14–3.1e-13 and 6.0e-15–1.2e-13, the same in three
+/// runs. Seen to fail with the threaded balls' steps cut where each woke (the build before the
+/// grid): velocity error 6e-9 to 6.6e-4 of the closing speed over 10 runs, energy-loss error up
+/// to 2.3e-4 — each ball's semi-implicit flight strayed from the parabola by ½·g·Σh² over its own
+/// uneven cycles, so the pair's relative motion was not the straight line the monitor's time of
+/// impact takes.
 #[test]
 fn an_oblique_collision_under_gravity_with_semi_implicit_euler() {
-    oblique_pairs(&[EngineKind::Lockstep, EngineKind::Exact], true, DEFAULT, pair_bounds);
-}
-
-/// The threaded engine with the default integrator under gravity: each ball's semi-implicit
-/// Euler flight strays from the parabola by ½·g·Σh² over its own, uneven cycles h, so the pair's
-/// relative motion is not the straight line the closed form (and the monitor's time of impact)
-/// takes, and the normal comes out off (at e = 1 a velocity error of 7e-4 of the closing speed is
-/// a normal off by about 3.5e-4 rad). Leapfrog, exact for the flight, removes it (the test
-/// above). Measured over 10 runs: velocity error 6e-9 to
-/// 6.6e-4 of the closing speed and energy-loss error up to 2.3e-4 (on a machine loaded by other
-/// builds, 1.4e-3 and 3.1e-4); momentum still within 8.8e-16.
-#[test]
-#[ignore = "threaded + semi-implicit Euler under gravity: relative velocity off the closed form by up to 6.6e-4 (1.4e-3 loaded) of the closing speed, energy loss by 2.3e-4 (8e-13 and 3e-13 with leapfrog)"]
-fn threaded_oblique_collision_under_gravity_with_semi_implicit_euler() {
-    oblique_pairs(&[EngineKind::Threaded], true, DEFAULT, pair_bounds);
+    oblique_pairs(&EngineKind::ALL, true, DEFAULT, pair_bounds);
 }
 
 /// A column of three touching balls falling in mid-air, struck from above at 10 m/s and from
@@ -416,8 +404,9 @@ fn drops(kinds: &[EngineKind], bound: fn(EngineKind) -> f64) {
 /// and the struck ball B is taken at its end-of-step velocity, which the floor's support reaches
 /// only in the resting phase (tests/restitution.rs), so the approach is off by up to g·dt.
 /// Lockstep within g·dt = 0.0098 m/s (measured 0.0084 m/s low); threaded within g·3.5 ms =
-/// 0.034 m/s: its monitor's spans run 1–2 ms, and longer on a loaded machine (measured
-/// 0.0048–0.0156 m/s low on a quiet machine, 0.024 m/s under a load average in the hundreds).
+/// 0.034 m/s: its monitor's spans are one period (1 ms), and two or three when it wakes late
+/// (measured 0.0084 m/s low, as lockstep, on a quiet machine; before its spans were whole
+/// periods, 0.0048–0.0156 m/s low, and 0.024 m/s under a load average in the hundreds).
 /// Seen to fail with (α) (lockstep) and (β).
 #[test]
 fn a_ball_dropped_on_a_resting_ball_rebounds_as_sequential_impacts_predict() {

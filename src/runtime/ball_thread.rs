@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
-use super::message::{Contact, Message, clock_seconds};
+use super::message::{Contact, Grid, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::Field;
@@ -248,7 +248,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             // monitor sees them applied). That is at most a horizon of simulated time after the
             // pause was asked for.
             let (from, applied) = (state.time, state.applied);
-            catch_up(horizon, &mut state, &params, max_step, &shared, &mut scratch);
+            catch_up(horizon, horizon, &mut state, &params, max_step, &shared, &mut scratch);
             // The commands take effect at the paused instant, so that a velocity set while paused
             // is the velocity the paused table shows: once the ball stands at the horizon as it
             // is now (the one read above may be older, if the thread waited since).
@@ -265,7 +265,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
             shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
         }
         let (from, applied) = (state.time, state.applied);
-        let source = catch_up(clock.min(horizon), &mut state, &params, max_step, &shared, &mut scratch);
+        let source = catch_up(clock.min(horizon), horizon, &mut state, &params, max_step, &shared, &mut scratch);
         if state.time > from {
             state.count(source);
             state.updates += 1;
@@ -312,49 +312,58 @@ fn take_inbox(inbox: &Receiver<Message>, state: &mut BallState, commands: &mut C
     }
 }
 
-/// Integrates the ball from its state's instant to `target` (runtime clock), applying each held
-/// contact response on the way at the instant it is due (its `apply_at`; already due ones at
+/// Integrates the ball from its state's instant towards `target` (runtime clock), applying each
+/// held contact response on the way at the instant it is due (its `apply_at`; already due ones at
 /// once), so the ball never integrates through an impact the monitor judged. Responses not due
-/// by `target` stay held. Returns where the last stretch's attraction came from.
+/// by `target` stay held. `horizon` is the monitor's horizon read with the inbox: an instant of
+/// the grid (see [`Grid`]). Returns where the last stretch's attraction came from.
 ///
-/// The ball's stretches are the monitor's (see `monitor::follow`, which carries the ball the same
-/// way): up to each response's `apply_at`, and once a response is applied, on to the end of the
-/// span it was judged over (its `stamp`) in one stretch, even past `target` and the horizon read
-/// before the inbox (a response is in the inbox only once its span is judged, every contact of
-/// the ball in it included). The ball then ends where the monitor put it, under any integrator: cut at
-/// the ball's own cycles instead, a stretch ends elsewhere under one that is not exact for a
-/// uniform force (semi-implicit Euler drops `g·Σh²/2` over steps `h`), and a ball resting in a
-/// pile rose a few micrometres above where the monitor had put it every pass and fell back the
-/// next, so that the pile's resting solve never converged.
+/// The ball's stretches are the monitor's (see `monitor::follow` and `Motion::advance`, which
+/// carry the ball the same way): up to each response's `apply_at`, and once a response is
+/// applied, on to the end of the span it was judged over (its `stamp`), even past `target` and
+/// the horizon read before the inbox (a response is in the inbox only once its span is judged,
+/// every contact of the ball in it included); free motion only up to the last instant of the
+/// grid at or before `target`; and every stretch cut at the grid's instants. The ball then ends
+/// where the monitor put it, under any integrator: cut at the ball's own cycles instead, a
+/// stretch ends elsewhere under one that is not exact for a uniform force (semi-implicit Euler
+/// drops `g·Σh²/2` over steps `h`), a ball resting in a pile rose a few micrometres above where
+/// the monitor had put it every pass and fell back the next, and two balls in flight did not move
+/// in a straight line relative to each other.
+#[allow(clippy::too_many_arguments)]
 fn catch_up(
     target: u64,
+    horizon: u64,
     state: &mut BallState,
     params: &Params,
     max_step: f64,
     shared: &Shared,
     scratch: &mut CycleScratch,
 ) -> AttractionSource {
-    let scale = params.time_scale;
+    let grid = Grid { reference: horizon, period: shared.config.monitor_period.as_nanos() as u64 };
     let mut source = AttractionSource::Off;
+    let (from, mut substeps) = (state.time, 0);
+    let mut cross = |state: &mut BallState, to: u64, source: &mut AttractionSource, substeps: &mut u64| {
+        for (a, b) in grid.pieces(state.time, to) {
+            let taken;
+            (*source, taken) =
+                advance(state, clock_seconds(b, a) * params.time_scale, max_step, params, shared, scratch);
+            *substeps += taken;
+            state.time = b;
+        }
+    };
     while let Some(m) = state.held.front().copied() {
         if m.apply_at > target {
             break;
         }
         if m.apply_at > state.time {
-            let lead = clock_seconds(m.apply_at, state.time) * scale;
-            source = advance(state, lead, max_step, params, shared, scratch);
-            state.time = m.apply_at;
+            cross(state, m.apply_at, &mut source, &mut substeps);
         } else if m.apply_at < state.time {
             // Relaxed: a statistic.
             shared.responses_late.fetch_add(1, Ordering::Relaxed);
         }
         state.held.pop_front();
         state.apply(&m, params);
-        if m.stamp > state.time {
-            let dt = clock_seconds(m.stamp, state.time) * scale;
-            source = advance(state, dt, max_step, params, shared, scratch);
-            state.time = m.stamp;
-        }
+        cross(state, m.stamp, &mut source, &mut substeps);
         if state.time == m.stamp && params.effects.collisions.is_some() {
             // At the end of its span the response has put the ball inside the field, as the
             // monitor carried it; what is left past a wall is what its motion and the monitor's
@@ -363,10 +372,16 @@ fn catch_up(
             hold_inside(&mut state.ball.position, radius, &params.field);
         }
     }
-    if target > state.time {
-        let dt = clock_seconds(target, state.time) * scale;
-        source = advance(state, dt, max_step, params, shared, scratch);
-        state.time = target;
+    cross(state, grid.at_or_before(target), &mut source, &mut substeps);
+    // The longest cycle so far and its sub-steps, for the report (a stall shows as one long
+    // cycle).
+    if state.time > from {
+        let packed = Shared::pack_cycle(clock_seconds(state.time, from) * params.time_scale, substeps);
+        if packed > state.longest_cycle {
+            state.longest_cycle = packed;
+            // Relaxed: a statistic (see `Shared::longest_cycle`).
+            shared.longest_cycle.fetch_max(packed, Ordering::Relaxed);
+        }
     }
     source
 }
@@ -508,10 +523,10 @@ fn advance(
     params: &Params,
     shared: &Shared,
     scratch: &mut CycleScratch,
-) -> AttractionSource {
+) -> (AttractionSource, u64) {
     // A NaN dt (from a NaN time scale) takes no step either.
     if dt.is_nan() || dt <= 0.0 {
-        return AttractionSource::Off;
+        return (AttractionSource::Off, 0);
     }
     let CycleScratch { integrator, forces, others, near } = scratch;
     let ball = &state.ball;
@@ -524,18 +539,11 @@ fn advance(
     let ball_forces = forces.on_ball(body, state.pull, &others);
     let policy = StepPolicy::new(dt).with_max_step(max_step);
     let taken = take_substeps(state, dt, policy, ball_forces, uniform, params, shared, integrator);
-    // The longest cycle so far and its split, for the report (a stall shows as one long cycle).
-    let packed = Shared::pack_cycle(dt, taken.count as u64);
-    if packed > state.longest_cycle {
-        state.longest_cycle = packed;
-        // Relaxed: a statistic (see `Shared::longest_cycle`).
-        shared.longest_cycle.fetch_max(packed, Ordering::Relaxed);
-    }
     if taken.drag_limited {
         // Relaxed: a statistic (see `Shared::drag_limited`).
         shared.drag_limited.fetch_add(1, Ordering::Relaxed);
     }
-    others.source()
+    (others.source(), taken.count as u64)
 }
 
 /// The other balls' pull on this one, frozen for a whole cycle (every sub-step): see

@@ -49,7 +49,7 @@ use parking_lot::RwLock;
 
 use super::attraction_tree::TreePublisher;
 use super::ball_thread::hold_inside;
-use super::message::{Contact, Message, clock_seconds};
+use super::message::{Contact, Grid, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
@@ -159,9 +159,9 @@ impl<'a> Monitor<'a> {
         let period_ns = (shared.config.monitor_period.as_nanos() as u64).max(1);
         let t_pass = shared.clock(Instant::now());
         // The first pass judges from the horizon the runtime set when it started, the instant
-        // every ball added since begins at (see `Runtime::insert`). Acquire: see
-        // `Shared::horizon`.
-        let judged = shared.horizon.load(Ordering::Acquire).min(t_pass);
+        // every ball added since begins at (see `Runtime::insert`), and the grid's first instant
+        // (see `Grid`). Acquire: see `Shared::horizon`.
+        let judged = shared.horizon.load(Ordering::Acquire);
         Monitor {
             shared,
             inboxes,
@@ -292,11 +292,20 @@ impl<'a> Monitor<'a> {
         let params = &self.params;
         let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
         let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
+        // The judged time always ends on the grid: every span is whole periods from the first.
+        let grid = Grid { reference: self.judged, period: self.period_ns };
+        // A resting ball crosses the span in whole periods, each in the sub-steps its length
+        // alone asks for (no drag to speak of), as `Motion::advance` carries it.
+        let piece = self.period_ns as f64 * 1e-9 * params.time_scale;
+        let per_piece =
+            StepPolicy::new(piece).with_max_step(self.shared.config.max_step).split(piece, &SpanRates::default());
+        let substeps = ((end - self.judged) / self.period_ns.max(1)) as u32 * per_piece.count;
         let setting = PassSetting {
             start: self.judged,
             end,
             time_scale: params.time_scale,
             motion: Motion {
+                grid,
                 integrator: params.integrator,
                 max_step: self.shared.config.max_step,
                 drag: params.effects.drag.as_ref(),
@@ -306,15 +315,7 @@ impl<'a> Monitor<'a> {
                 restitution: collisions.restitution,
                 field: params.field,
                 span,
-                // The balls cross the span as `Motion::advance` does: resting ones (no drag to
-                // speak of) in the sub-steps its length alone asks for.
-                drift: resting_drift(
-                    params.integrator,
-                    StepPolicy::new(span)
-                        .with_max_step(self.shared.config.max_step)
-                        .split(span, &SpanRates::default())
-                        .count,
-                ),
+                drift: resting_drift(params.integrator, substeps),
             },
         };
         self.contacts.run(self.shared, inboxes, &self.records, &setting);
@@ -383,6 +384,8 @@ struct Judged {
 /// speed guard rail after each (the other balls' attraction is left out: the threads take it
 /// from the tree).
 struct Motion<'a> {
+    /// The grid the balls' stretches are cut at (see [`Grid`]).
+    grid: Grid,
     integrator: Integrator,
     max_step: f64,
     drag: Option<&'a Drag>,
@@ -399,6 +402,23 @@ impl Motion<'_> {
     /// (a 1.6 g ball of 2.2 m at 300 m/s did, within the first passes).
     #[allow(clippy::too_many_arguments)]
     fn advance(
+        &self,
+        x: &mut DVec2,
+        v: &mut DVec2,
+        ball: &Ball,
+        a: DVec2,
+        from: u64,
+        to: u64,
+        scratch: &mut IntegratorScratch,
+    ) {
+        for (from, to) in self.grid.pieces(from, to) {
+            self.advance_piece(x, v, ball, a, from, to, scratch);
+        }
+    }
+
+    /// [`Motion::advance`] over one piece of the grid, as the ball thread's `advance` takes it.
+    #[allow(clippy::too_many_arguments)]
+    fn advance_piece(
         &self,
         x: &mut DVec2,
         v: &mut DVec2,
