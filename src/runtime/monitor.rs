@@ -23,6 +23,14 @@
 //! it before the next pass has judged further, so every response reaches its ball before the
 //! ball reaches the instant it is for.
 //!
+//! **The grid.** Every span starts and ends on the instants of whole periods from the first
+//! (`Grid`), and every ball's thread cuts its own integration there too (and at the instants of
+//! its responses), as [`Motion`] does when it carries a ball: the monitor's prediction of a ball
+//! is then the ball's own arithmetic, under any integrator. Cut where each ball woke instead,
+//! semi-implicit Euler's flight strayed from the parabola by `½·g·Σh²` over each ball's own steps,
+//! two balls in flight did not move in a straight line relative to each other, and an oblique
+//! collision under gravity came out up to 6.6e-4 of the closing speed off.
+//!
 //! Why consecutive spans, not overlapping ones: a response in flight makes a ball's predicted
 //! path the one after its impact, and that path rewound to before the impact is not where the
 //! ball was (two balls that bounced would seem to have come through each other). The solver
