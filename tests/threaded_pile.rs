@@ -138,7 +138,8 @@ fn median(values: &[f64]) -> f64 {
 /// Measured (twelve runs, an otherwise idle 2-core machine): floor 0.99998 to 1.00001 of M·g·T,
 /// largest overlap 0.46 % to 0.48 % (the solver's slop is 0.5 %), median kinetic energy 1.2e-7 to
 /// 4.9e-7 J against lockstep's 1.0e-7 J (1.2 to 4.9 times: a few times, as the issue asks, the
-/// spread being the runtime's timing), the largest read 7.7e-7 J (0.1 mm/s). Seen to fail with
+/// spread being the runtime's timing; six more runs once the balls' steps were on the monitor's
+/// grid: 1.2 to 4.1 times), the largest read 7.7e-7 J (0.1 mm/s). Seen to fail with
 /// spans that follow the monitor's wake-ups and a resting drift of one sub-step for a late span
 /// (the build before this test): reads of 1.2e-3 to 2.2e-2 J, where a long span sank the pile and
 /// a short one after it struck it whole; and with the responses in flight left out of the state a
