@@ -420,23 +420,21 @@ impl Motion<'_> {
         scratch: &mut IntegratorScratch,
     ) {
         for (from, to) in self.grid.pieces(from, to) {
-            self.advance_piece(x, v, ball, a, from, to, scratch);
+            self.advance_piece(x, v, ball, a, clock_seconds(to, from) * self.time_scale, scratch);
         }
     }
 
-    /// [`Motion::advance`] over one piece of the grid, as the ball thread's `advance` takes it.
-    #[allow(clippy::too_many_arguments)]
+    /// [`Motion::advance`] over one piece of the grid, `dt` simulated seconds long, as the ball
+    /// thread's `advance` takes it.
     fn advance_piece(
         &self,
         x: &mut DVec2,
         v: &mut DVec2,
         ball: &Ball,
         a: DVec2,
-        from: u64,
-        to: u64,
+        dt: f64,
         scratch: &mut IntegratorScratch,
     ) {
-        let dt = clock_seconds(to, from) * self.time_scale;
         if dt.is_nan() || dt <= 0.0 {
             return;
         }
