@@ -867,6 +867,8 @@ struct RestingRow {
     mass: f64,
     target: f64,
     impulse: f64,
+    /// The row's contact: its index in the list.
+    contact: u32,
 }
 
 /// [`resting_pass`] over packed rows (see [`RestingRow`]).
@@ -889,6 +891,29 @@ fn resting_rows_pass(rows: &mut [RestingRow], v: &mut [DVec2], backward: bool) -
     largest
 }
 
+/// The active contacts of `list` as `(height, index)`, lowest first (ties in list order):
+/// the height of the contact point along `up` (walls: where the ball touches the wall; pairs:
+/// midway between the centres). With `up` zero (no uniform force), list order.
+///
+/// Why: a pile's weight and its floor's support cross it from contact to contact. A forward pass
+/// in this order carries the support from the floor to the top in one sweep, and a backward pass
+/// the weight down. In the broad phase's order (cells row by row, but every band's seam after
+/// all the bands, and the walls first) each seam held the support back a pass. Measured on the
+/// settled `pile` under the monitor's spans (`cargo bench --bench monitor_pass`): 28.6 passes a
+/// span instead of 36.0, 1,025 of 2,000 solves at the cap instead of 1,348, and 1.2e-6 J of
+/// kinetic energy left instead of 1.9e-6 J.
+fn order_by_height(list: &[Contact], position: &[DVec2], up: DVec2, order: &mut Vec<(f64, u32)>) {
+    order.clear();
+    order.extend(list.iter().enumerate().filter(|(_, c)| c.active).map(|(k, c)| {
+        let xa = position[c.a as usize];
+        let at = if c.is_wall() { xa + c.reach * c.normal } else { 0.5 * (xa + position[c.b as usize]) };
+        (at.dot(up), k as u32)
+    }));
+    if up != DVec2::ZERO {
+        order.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+    }
+}
+
 /// The contact solver for a snapshot of balls (see the module comment), with its scratch memory
 /// and the last call's impulses (keyed by ids) for the next call's warm start.
 #[derive(Clone, Debug, Default)]
@@ -904,6 +929,8 @@ pub struct ContactSolver {
     /// Per candidate pair: whether this span's list has its contact (the redetection's test).
     listed: Vec<bool>,
     rows: Vec<RestingRow>,
+    /// `(height, contact)` of every active resting contact, sorted: the order of `rows`.
+    order: Vec<(f64, u32)>,
     /// The span the warm-start impulses were taken over, s.
     warm_span: f64,
 }
@@ -1060,18 +1087,26 @@ impl ContactSolver {
             resting_begin(list, &self.position, &self.velocity, 0, &self.ids, span, params.drift, tolerance.reach_gap);
         resting_warm_start(list, &mut self.velocity, 0);
         if tally.resting > 0 {
-            // The passes on packed rows of the active contacts (see `RestingRow`), a wall's `b`
-            // the zero velocity in slot n; their impulses go back to the list after.
+            // The passes on packed rows of the active contacts (see `RestingRow`), lowest first
+            // (see `order_by_height`), a wall's `b` the zero velocity in slot n; their impulses go
+            // back to the list after.
+            let up =
+                -balls.iter().filter(|b| valid(b)).fold(DVec2::ZERO, |sum, b| sum + b.acceleration).normalize_or_zero();
+            order_by_height(list, &self.position, up, &mut self.order);
             self.rows.clear();
-            self.rows.extend(list.iter().filter(|c| c.active).map(|c| RestingRow {
-                a: c.a,
-                b: if c.is_wall() { n as u32 } else { c.b },
-                normal: c.normal,
-                inverse_mass_a: c.inverse_mass_a,
-                inverse_mass_b: c.inverse_mass_b,
-                mass: 1.0 / (c.inverse_mass_a + c.inverse_mass_b),
-                target: c.target,
-                impulse: c.impulse,
+            self.rows.extend(self.order.iter().map(|&(_, k)| {
+                let c = &list[k as usize];
+                RestingRow {
+                    a: c.a,
+                    b: if c.is_wall() { n as u32 } else { c.b },
+                    normal: c.normal,
+                    inverse_mass_a: c.inverse_mass_a,
+                    inverse_mass_b: c.inverse_mass_b,
+                    mass: 1.0 / (c.inverse_mass_a + c.inverse_mass_b),
+                    target: c.target,
+                    impulse: c.impulse,
+                    contact: k,
+                }
             }));
             self.velocity.push(DVec2::ZERO);
             loop {
@@ -1086,8 +1121,8 @@ impl ContactSolver {
                 }
             }
             self.velocity.pop();
-            for (c, r) in list.iter_mut().filter(|c| c.active).zip(&self.rows) {
-                c.impulse = r.impulse;
+            for r in &self.rows {
+                list[r.contact as usize].impulse = r.impulse;
             }
         }
         resting_end(list, &mut self.position, 0, span, params.drift, &mut tally.walls);
