@@ -309,6 +309,7 @@ impl<'a> Monitor<'a> {
             StepPolicy::new(piece).with_max_step(self.shared.config.max_step).split(piece, &SpanRates::default());
         let substeps = ((end - self.judged) / self.period_ns.max(1)) as u32 * per_piece.count;
         let setting = PassSetting {
+            generation: self.generation,
             start: self.judged,
             end,
             time_scale: params.time_scale,
@@ -342,6 +343,8 @@ impl<'a> Monitor<'a> {
 
 /// What one pass solves over.
 struct PassSetting<'a> {
+    /// The generation of the parameters the pass runs with (see [`Monitor::refresh_params`]).
+    generation: u64,
     /// The span the pass judges (runtime clock, ns).
     start: u64,
     end: u64,
@@ -359,27 +362,39 @@ struct InFlight {
     /// The last `queue.len()` messages sent, oldest first: their sequence numbers run on to
     /// `sent`, and message k is applied once the ball's `applied` count exceeds k (a ball applies
     /// its contact messages in the order they were sent).
-    queue: VecDeque<Contact>,
+    queue: VecDeque<Sent>,
+}
+
+/// A contact message sent, and the ball as the pass that sent it carried it to the message's
+/// stamp, its response applied (see [`ContactPass::send_responses`]).
+#[derive(Clone, Copy)]
+struct Sent {
+    message: Contact,
+    after: Ball,
 }
 
 impl InFlight {
-    /// Forgets what the record says was applied; resets for a new ball in the slot. The count
-    /// alone says how many to forget: the queue's messages are not read (on a 1,024-ball pile,
-    /// reading each slot's oldest message took a twentieth of the pass in cache misses).
-    fn sync(&mut self, r: &BallRecord) {
+    /// Forgets what the record says was applied; resets for a new ball in the slot. Returns the
+    /// newest message it forgot, if any (the ball has applied it since the last pass). The count
+    /// alone says how many to forget: the queue's messages are not read but that one (on a
+    /// 1,024-ball pile, reading each slot's oldest message took a twentieth of the pass in cache
+    /// misses).
+    fn sync(&mut self, r: &BallRecord) -> Option<Sent> {
         if self.id != Some(r.ball.id) {
             self.id = Some(r.ball.id);
             self.sent = 0;
             self.queue.clear();
         }
         let first = self.sent - self.queue.len() as u64;
-        let applied = r.applied.saturating_sub(first).min(self.queue.len() as u64);
-        self.queue.drain(..applied as usize);
+        let applied = r.applied.saturating_sub(first).min(self.queue.len() as u64) as usize;
+        let newest = applied.checked_sub(1).map(|k| self.queue[k]);
+        self.queue.drain(..applied);
+        newest
     }
 
     /// Notes a message sent.
-    fn push(&mut self, m: Contact) {
-        self.queue.push_back(m);
+    fn push(&mut self, sent: Sent) {
+        self.queue.push_back(sent);
         self.sent += 1;
     }
 }
@@ -394,6 +409,9 @@ struct Judged {
     time: u64,
     position: DVec2,
     velocity: DVec2,
+    /// The uniform acceleration and the parameters' generation the pass carried the ball with.
+    acceleration: DVec2,
+    generation: u64,
 }
 
 /// How a ball moves between contacts, as its own thread integrates it: its integrator, in
@@ -534,14 +552,14 @@ impl ContactPass {
         self.reach.clear();
         self.fastest = 0.0;
         for (k, r) in records.iter().enumerate() {
-            self.in_flight[r.slot].sync(r);
+            let applied = self.in_flight[r.slot].sync(r);
             // A ball being removed takes part in no contact: its partners get no half-impulse
             // it would not get.
             if inbox(inboxes, r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
                 continue;
             }
             let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
-            let (x_start, v_start) = self.span_start(r, a, s);
+            let (x_start, v_start) = self.span_start(r, a, applied, s);
             let (mut x, mut v) = (x_start, v_start);
             s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
             self.fastest = self.fastest.max(v_start.length()).max(v.length());
@@ -563,17 +581,32 @@ impl ContactPass {
     }
 
     /// The ball of record `r` (uniform acceleration `a`) at the span's start: as the last pass
-    /// left it if it has published nothing since; otherwise from its record, moved on as its
-    /// thread will move it, in the same stretches (see `ball_thread::catch_up`): each response in
-    /// flight applied at its instant (the thread holds each to that instant, and every one in
-    /// flight is for an earlier span, so before this one's start), then on to the end of its span.
-    fn span_start(&mut self, r: &BallRecord, a: DVec2, s: &PassSetting) -> (DVec2, DVec2) {
+    /// left it if it has published nothing since, or if what it published is where a pass put
+    /// it; otherwise from its record, moved on as its thread will move it, in the same stretches
+    /// (see `ball_thread::catch_up`): each response in flight applied at its instant (the thread
+    /// holds each to that instant, and every one in flight is for an earlier span, so before this
+    /// one's start), then on to the end of its span. `applied`: the newest message the ball has
+    /// applied since the last pass (see [`InFlight::sync`]).
+    ///
+    /// Where a pass put it: a ball that applies a message goes on to its stamp, so a ball in a
+    /// pile, sent one every pass, publishes its state at the stamp of the newest it applied. If
+    /// that state is, to the bit, the one the pass that sent the message carried it to, and its
+    /// acceleration and the parameters are those the passes since carried it with, its thread
+    /// and the passes since did the same arithmetic on the same numbers, and the last pass's end
+    /// is where the ball will be: the record is not carried again (on a 1,024-ball pile, where a
+    /// ball publishes every five or six passes, carrying each through its messages in flight was
+    /// a tenth of the pass).
+    fn span_start(&mut self, r: &BallRecord, a: DVec2, applied: Option<Sent>, s: &PassSetting) -> (DVec2, DVec2) {
         let last = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start);
         if let Some(j) = last.filter(|j| j.record_time == r.time && j.record_applied == r.applied) {
             return (j.position, j.velocity);
         }
+        let as_put = applied.is_some_and(|m| m.message.stamp == r.time && m.after == r.ball);
+        if let Some(j) = last.filter(|j| as_put && j.acceleration == a && j.generation == s.generation) {
+            return (j.position, j.velocity);
+        }
         let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
-        for m in &self.in_flight[r.slot].queue {
+        for Sent { message: m, .. } in &self.in_flight[r.slot].queue {
             t = follow(&s.motion, &s.params.field, (&mut x, &mut v, t), m, &r.ball, a, &mut self.scratch);
         }
         s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
@@ -635,8 +668,12 @@ impl ContactPass {
                 time: s.end,
                 position: b.position + response.shift,
                 velocity: b.velocity + response.velocity_change,
+                acceleration: b.acceleration,
+                generation: s.generation,
             };
             if negligible(response, b.radius, s.params.span) {
+                // No message: the ball moves on in free motion, as the solve found it.
+                (judged.position, judged.velocity) = (b.position, b.velocity);
                 self.judged[r.slot] = Some(judged);
                 continue;
             }
@@ -662,7 +699,7 @@ impl ContactPass {
             let Some(tx) = inbox(inboxes, r) else { continue };
             // Fails only if the ball's thread is gone (it panicked): counted as dropped.
             if tx.send(Message::Contact(message)).is_ok() {
-                self.in_flight[r.slot].push(message);
+                self.in_flight[r.slot].push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
                 sent += 1;
             } else {
                 dropped += 1;
