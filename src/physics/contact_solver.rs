@@ -1174,3 +1174,52 @@ impl ContactSolver {
         tally
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A resting contact between balls `a` and `b` (or a wall, `b` = [`WALL`], along `normal`).
+    fn resting(a: u32, b: u32, normal: DVec2, active: bool) -> Contact {
+        Contact {
+            a,
+            b,
+            normal,
+            reach: 0.5,
+            plane: 0.0,
+            tau: NEVER,
+            persistent: false,
+            late: false,
+            bias: 0.0,
+            inverse_mass_a: 1.0,
+            inverse_mass_b: if b == WALL { 0.0 } else { 1.0 },
+            restitution: 0.0,
+            impulse: 0.0,
+            target: 0.0,
+            impact: 0.0,
+            active,
+            wall: Wall::Bottom,
+            key: 0,
+        }
+    }
+
+    #[test]
+    fn resting_rows_go_lowest_first_and_in_list_order_without_a_uniform_force() {
+        let position = [DVec2::new(0.0, 0.5), DVec2::new(0.0, 1.5), DVec2::new(3.0, -2.0), DVec2::new(3.0, -1.0)];
+        let list = [
+            resting(0, 1, DVec2::Y, true),         // at y = 1
+            resting(0, WALL, DVec2::NEG_Y, true),  // the floor under ball 0: y = 0
+            resting(2, 3, DVec2::Y, true),         // at y = −1.5: below zero
+            resting(1, WALL, DVec2::NEG_Y, false), // not active: left out
+            resting(3, WALL, DVec2::X, true),      // a side wall at ball 3's height, y = −1
+        ];
+        let mut order = Vec::new();
+        order_by_height(&list, &position, DVec2::Y, &mut order);
+        assert_eq!(order.iter().map(|&k| k as u32).collect::<Vec<_>>(), [2, 4, 1, 0]);
+        // Gravity along +x: "up" is −x, and the contacts at x = 3 are the lowest.
+        order_by_height(&list, &position, DVec2::NEG_X, &mut order);
+        assert_eq!(order.iter().map(|&k| k as u32).collect::<Vec<_>>(), [4, 2, 0, 1]);
+        order_by_height(&list, &position, DVec2::ZERO, &mut order);
+        assert_eq!(order.iter().map(|&k| k as u32).collect::<Vec<_>>(), [0, 1, 2, 4]);
+    }
+}
