@@ -38,7 +38,9 @@
 //!      bouncing ball comes to rest once its bounces are about 2 mm high.
 //! 2. **Resting contacts.** Every contact still touching at the end gets an inelastic
 //!    non-penetration impulse on its end velocity (projected Gauss–Seidel, warm-started from the
-//!    last span, iterated until converged). Such an impulse stands for a steady force over the
+//!    last span, iterated until converged; [`ContactSolver::solve`] sweeps the contacts lowest
+//!    first, lockstep's banded driver in its bands' order: the order changes how fast the passes
+//!    converge, not what they converge to). Such an impulse stands for a steady force over the
 //!    span, so it also moves the balls as the integrator would have (`drift`): a resting pile
 //!    stays put to rounding and its floor carries exactly its weight.
 //! 3. **Positions.** Overlaps left over are pushed apart, split by inverse mass, walls immovable,
