@@ -89,7 +89,7 @@ pub fn check_effects(effects: &Effects) -> Result<(), EngineError> {
     }
 }
 
-/// [`World`] behind the engine interface.
+/// `World` behind the engine interface.
 #[derive(Clone)]
 pub struct ExactEngine {
     world: World,
