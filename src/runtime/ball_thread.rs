@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
-use super::message::{Contact, Grid, Message, clock_seconds};
+use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::Field;
@@ -339,7 +339,7 @@ fn catch_up(
     shared: &Shared,
     scratch: &mut CycleScratch,
 ) -> AttractionSource {
-    let grid = Grid { reference: horizon, period: shared.config.monitor_period.as_nanos() as u64 };
+    let grid = shared.grid(horizon);
     let mut source = AttractionSource::Off;
     let (from, mut substeps) = (state.time, 0);
     let mut cross = |state: &mut BallState, to: u64, source: &mut AttractionSource, substeps: &mut u64| {

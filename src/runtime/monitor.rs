@@ -301,7 +301,7 @@ impl<'a> Monitor<'a> {
         let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
         let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
         // The judged time always ends on the grid: every span is whole periods from the first.
-        let grid = Grid { reference: self.judged, period: self.period_ns };
+        let grid = self.shared.grid(self.judged);
         // A resting ball crosses the span in whole periods, each in the sub-steps its length
         // alone asks for (no drag to speak of), as `Motion::advance` carries it.
         let piece = self.period_ns as f64 * 1e-9 * params.time_scale;

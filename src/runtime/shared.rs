@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 use parking_lot::RwLock;
 
 use super::attraction_tree::PublishedTree;
+use super::message::Grid;
 use super::table::BallTable;
 use crate::physics::{Effects, Field, Integrator, WallImpulses};
 
@@ -184,6 +185,12 @@ impl Shared {
     pub fn pack_cycle(dt: f64, steps: u64) -> u64 {
         let ns = (dt * 1e9).clamp(0.0, ((1u64 << 48) - 1) as f64) as u64;
         (ns << 16) | steps.min(0xFFFF)
+    }
+
+    /// The grid of whole monitor periods through `reference` (see [`Grid`]): the one the ball
+    /// threads and the monitor both cut their stretches at.
+    pub fn grid(&self, reference: u64) -> Grid {
+        Grid { reference, period: (self.config.monitor_period.as_nanos() as u64).max(1) }
     }
 
     /// The runtime clock at `t` (ns): wall time since the epoch, less the time the monitor
