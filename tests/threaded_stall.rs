@@ -69,6 +69,23 @@ fn largest_overlap(records: &[BallRecord]) -> f64 {
 /// gap with contacts off and the push-apart kept the fall speed). Seen to fail with the balls
 /// integrating to the clock past the horizon (`catch_up(clock, …)` in `run_ball`): +41 % to +46 %
 /// at e = 1, +44 % at e = 0.8, where the top balls also swapped places (the column's order).
+/// Waits (up to 10 s) until process `pid` has a thread named as the runtime names its monitor.
+#[cfg(target_os = "linux")]
+fn wait_for_monitor(pid: u32) -> bool {
+    let started = std::time::Instant::now();
+    while started.elapsed() < Duration::from_secs(10) {
+        let tasks = std::fs::read_dir(format!("/proc/{pid}/task")).into_iter().flatten().flatten();
+        if tasks
+            .into_iter()
+            .any(|t| std::fs::read_to_string(t.path().join("comm")).is_ok_and(|name| name.trim() == "collision-monit"))
+        {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    false
+}
+
 #[cfg(target_os = "linux")]
 #[test]
 fn a_stall_of_the_whole_process_leaves_a_resting_stack_as_it_was() {
@@ -92,7 +109,11 @@ fn a_stall_of_the_whole_process_leaves_a_resting_stack_as_it_was() {
             .arg(&state)
             .spawn()
             .unwrap();
-        std::thread::sleep(Duration::from_millis(1000));
+        // The stall falls inside the run: half a second after the runtime's monitor is up (a
+        // fixed second after the spawn missed the run once on a loaded machine, whose start took
+        // longer, and the runtime saw no stall to drop).
+        assert!(wait_for_monitor(child.id()), "the run's monitor thread did not start within 10 s");
+        std::thread::sleep(Duration::from_millis(500));
         let pid = child.id() as libc::pid_t;
         // SAFETY: kill takes no pointers; `pid` is our own child, not yet waited for, so the id
         // cannot have been reused.
