@@ -172,27 +172,32 @@ fn a_settled_pile_stays_at_rest_and_its_floor_carries_it() {
 }
 
 /// The small pile, dropped on the threaded runtime from 4 to 20 m, left for 8.5 s and watched
-/// for six stretches of half a second: its floor takes its weight within 5 %, no two balls
-/// overlap by more than 2 % of a diameter, and by the end (about 11.5 s) it has come to rest: its
-/// kinetic energy below that of every ball at 1 mm/s (a player sees 5 cm/s). Lockstep's figure at
-/// the same instant on the scene, its mirror image and with its balls renumbered is printed
-/// beside it: how a dropped pile settles is chaotic (those three differ 6-fold at 5.5 s and
-/// 20-fold at 10 s), so an instant of one run is no bound; the settled pile's test above holds
-/// the threaded pile to lockstep's.
+/// for six stretches of half a second (to about 11.5 s): its floor takes its weight within 5 %,
+/// no two balls overlap by more than 2 % of a diameter, and it comes to rest: at least one of
+/// the six reads has its kinetic energy below that of every ball at 1 mm/s (a player sees
+/// 5 cm/s). Lockstep's figures on the scene, its mirror image and with its balls renumbered are
+/// printed beside it.
 ///
-/// Measured (nine runs): floor 0.99999 to 1.00001, largest overlap 0.45 % to 0.50 %, kinetic
-/// energy at 9 s 1e-8 to 1.9e-2 J, at 10 s 3e-9 to 1.3e-6 J (and once above 7.8e-6 J), against
-/// lockstep's 1.3e-7 to 2.6e-6 J at 10 s. The bound was first "below 3 times lockstep's at
-/// 5.5 s", one sample of that chaos (1.6e-2 J); the threaded pile, still settling then too, read
-/// 1e-3 to 1 J there in different runs. Seen to fail with the responses in flight left out of the
-/// state a pass solves from: floor 1,196 times the weight, overlaps of 94 %, 4e7 J.
+/// Why no read at a fixed instant is the bound: the balls are frictionless, and a frictionless
+/// heap has no angle of repose, so a settled pile can still give way and slide flatter. Lockstep
+/// does so too: over 9–11.5 s, 3 of 40 seeds of this scene (25, 36 and the shipped 3) read above
+/// the bound once or more, seed 25 climbing from 4e-8 J at 9 s to 0.14 J at 11 s as its heap
+/// slid, 1.5e-2 J still at 11.5 s. On the threaded runtime (30 runs, an idle 2-core machine) 6
+/// had a read above it, the highest 2.8e-2 J, and every run had reads below it: the lowest read of
+/// a run was 2e-12 to 2.5e-6 J. Two of about twenty CI runs failed the earlier bound on the last
+/// read alone (9.2e-4 J at 11.5 s, decaying). The settled pile's test above holds the threaded
+/// pile's steady state to lockstep's.
+///
+/// Seen to fail with the responses in flight left out of the state a pass solves from: floor
+/// 1,196 times the weight, overlaps of 94 %, 4e7 J.
 #[test]
 fn a_dropped_pile_comes_to_rest_and_its_floor_carries_it() {
     let _serial = serial();
     let scene = common::small_pile();
     let f = run(&scene, Duration::from_millis(8500), Duration::from_millis(500), 6);
-    let &(t, kinetic) = f.kinetic.last().unwrap();
+    let &(t, _) = f.kinetic.last().unwrap();
     let end = f.began + t;
+    let lowest = f.kinetic.iter().map(|&(_, k)| k).fold(f64::INFINITY, f64::min);
     let mut mirrored = scene.clone();
     for b in &mut mirrored.balls {
         b.position.x = mirrored.field.width - b.position.x;
@@ -208,7 +213,7 @@ fn a_dropped_pile_comes_to_rest_and_its_floor_carries_it() {
     );
     assert!((f.floor_ratio - 1.0).abs() < 0.05, "the floor took {} of the weight", f.floor_ratio);
     assert!(f.overlap < 0.02, "largest overlap {} of a diameter", f.overlap);
-    assert!(kinetic < visible, "kinetic {kinetic} J at {end} s");
+    assert!(lowest < visible, "no read below {visible} J: {}", sampled(&f.kinetic));
 }
 
 /// The shipped `pile` (1,000 balls, e = 0.8) dropped on the threaded runtime, settled for 20 s
