@@ -141,8 +141,9 @@ pub struct BallResponse {
     pub velocity_change: DVec2,
     /// Add to the ball's end-of-span position, m.
     pub shift: DVec2,
-    /// Seconds before the end of the span of the ball's earliest impact (the span if it only
-    /// rested, 0 if nothing touched it).
+    /// Seconds before the end of the span of the ball's earliest impact, 0 if nothing struck it
+    /// (a response of resting contacts alone acts at the end of the span: the state the solve
+    /// found them in).
     pub instant: f64,
 }
 
@@ -1165,8 +1166,7 @@ impl ContactSolver {
         }
         self.responses.clear();
         for (i, b) in balls.iter().enumerate() {
-            let touched = self.position[i] != b.position || self.velocity[i] != b.velocity;
-            let instant = self.impact.instant(i).unwrap_or(if touched { span } else { 0.0 });
+            let instant = self.impact.instant(i).unwrap_or(0.0);
             self.responses.push(BallResponse {
                 velocity_change: self.velocity[i] - b.velocity,
                 shift: self.position[i] - b.position,

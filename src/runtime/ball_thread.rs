@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
+use super::contact_ring::ContactRing;
 use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
@@ -58,6 +59,8 @@ struct BallState {
     time: u64,
     /// Contact messages received and not applied yet, oldest first (see `catch_up`).
     held: VecDeque<Contact>,
+    /// Contact responses taken from the ring so far (see `contact_ring`).
+    taken: u64,
     /// Cycles since the last flush that took attraction from the tree / read the table directly.
     tree_cycles: u64,
     direct_cycles: u64,
@@ -168,7 +171,13 @@ enum Handled {
 
 /// Runs one ball until it is told to stop (or every sender is gone). `ball` is already in the
 /// table at `slot` (written by the runtime before this thread started).
-pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Receiver<Message>) {
+pub(crate) fn run_ball(
+    shared: Arc<Shared>,
+    slot: usize,
+    ball: Ball,
+    inbox: Receiver<Message>,
+    contacts: Arc<ContactRing>,
+) {
     let _guard = PanicGuard { shared: &shared, slot };
     // The key ball is the one the player steers and watches: it keeps the ordinary policy, so its
     // updates (the pull's answer) never wait behind the crowd or another program's load. One
@@ -189,6 +198,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         walls: WallImpulses::default(),
         time,
         held: VecDeque::new(),
+        taken: 0,
         tree_cycles: 0,
         direct_cycles: 0,
         longest_cycle: 0,
@@ -212,7 +222,7 @@ pub(crate) fn run_ball(shared: Arc<Shared>, slot: usize, ball: Ball, inbox: Rece
         let mut received = false;
         let horizon = loop {
             let horizon = shared.horizon.load(Ordering::Acquire);
-            match take_inbox(&inbox, &mut state, &mut commands) {
+            match take_inbox(&inbox, &contacts, &mut state, &mut commands) {
                 Inbox::Quiet => break horizon,
                 Inbox::Received => {
                     received = true;
@@ -291,25 +301,56 @@ enum Inbox {
     Stop,
 }
 
-/// Takes every message in the inbox: contact responses are held (applied in `catch_up`), commands
-/// kept in `commands` until they take effect.
-fn take_inbox(inbox: &Receiver<Message>, state: &mut BallState, commands: &mut Commands) -> Inbox {
-    let mut got = Inbox::Quiet;
+/// Takes every message in the inbox: contact responses are held (applied in `catch_up`) in the
+/// order the monitor sent them, commands kept in `commands` until they take effect.
+///
+/// The order: the monitor sends a response by the channel only when the ring is full, and then
+/// sends every response by the channel until the ball has applied those (see
+/// `monitor::InFlight`). So every response in the ring is older than any response in the channel,
+/// and the ring is taken first; and before a response from the channel, the ring is taken again:
+/// the ring may have filled while the thread was away since (a stall, or the machine starving it)
+/// with responses older than that one, and pushed before it was sent, so they are in the ring by
+/// the time it is received.
+fn take_inbox(
+    inbox: &Receiver<Message>,
+    contacts: &ContactRing,
+    state: &mut BallState,
+    commands: &mut Commands,
+) -> Inbox {
+    let mut got = if take_ring(contacts, state) { Inbox::Received } else { Inbox::Quiet };
     loop {
         match inbox.try_recv() {
-            Ok(message) => match handle(message, state, commands) {
-                Handled::Stop => return Inbox::Stop,
-                Handled::Stalled => got = Inbox::Stalled,
-                Handled::Continue => {
-                    if let Inbox::Quiet = got {
-                        got = Inbox::Received;
+            Ok(message) => {
+                if let Message::Contact(_) = message {
+                    take_ring(contacts, state);
+                }
+                match handle(message, state, commands) {
+                    Handled::Stop => return Inbox::Stop,
+                    Handled::Stalled => got = Inbox::Stalled,
+                    Handled::Continue => {
+                        if let Inbox::Quiet = got {
+                            got = Inbox::Received;
+                        }
                     }
                 }
-            },
+            }
             Err(TryRecvError::Empty) => return got,
             Err(TryRecvError::Disconnected) => return Inbox::Stop,
         }
     }
+}
+
+/// Takes every response in the ring into `held`; returns whether there was any.
+fn take_ring(contacts: &ContactRing, state: &mut BallState) -> bool {
+    let before = state.taken;
+    while let Some(contact) = contacts.pop(&mut state.taken) {
+        state.held.push_back(contact);
+    }
+    if state.taken == before {
+        return false;
+    }
+    contacts.release(state.taken);
+    true
 }
 
 /// Integrates the ball from its state's instant towards `target` (runtime clock), applying each

@@ -35,9 +35,16 @@ pub enum Message {
 /// the same change as at `stamp`: `v += dv`, `x += dx + dv·(t − stamp)` (the ball then moves on
 /// with the new velocity for `t − stamp`, or has moved with it since). Under uniform forces this
 /// is exact whenever it is applied. The ball applies it no earlier than `apply_at` (the instant
-/// of its first impact in the pass, or the start of the interval for resting contacts), so that
-/// it never shows a state between the impact's two sides, and never later than it reaches the
-/// horizon the pass published.
+/// of its first impact in the pass, so that it never shows a state between the impact's two
+/// sides; `stamp` for resting contacts alone), and never later than it reaches the horizon the
+/// pass published.
+///
+/// Why resting contacts act at `stamp`: the solve found them in the ball's free motion to
+/// `stamp`, which the monitor has carried the ball through already, so it carries the ball
+/// through the response without integrating the span again (a ball applying its support at the
+/// start of the span was integrated twice a pass, once free and once supported: on the 1,024-ball
+/// pile that was a tenth of the monitor's pass). Between passes the ball shows its free fall,
+/// ½·g·h² into its support (5 µm for a 1 ms span), which the response takes back.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Contact {
     /// The velocity change, m/s.

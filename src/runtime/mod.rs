@@ -3,20 +3,25 @@
 //! collision-monitor thread that sends impulses as messages. Every thread of the program that
 //! simulates lives here, and every one is joined.
 //!
-//! Channels: each ball's inbox is a crossbeam channel. Its receiver is owned by the ball's
-//! thread; its senders by the runtime's registry and the monitor's inbox list, both of which drop
-//! theirs when the ball is removed or the runtime shuts down — the `Stop` message, not the
-//! channel closing, is what ends the thread, and closing is the fallback.
+//! Channels: each ball's inbox is a crossbeam channel and a contact ring. The channel's receiver
+//! is owned by the ball's thread; its senders by the runtime's registry and the monitor's inbox
+//! list, both of which drop theirs when the ball is removed or the runtime shuts down — the
+//! `Stop` message, not the channel closing, is what ends the thread, and closing is the
+//! fallback. The ring (`contact_ring`) carries the monitor's contact responses, the monitor its
+//! only producer and the ball's thread its only consumer; both hold it by an `Arc`, freed with
+//! the last of them. A response that finds the ring full goes by the channel.
 
 mod attraction_tree;
 mod ball_thread;
+mod contact_ring;
 mod message;
 mod monitor;
 mod shared;
 mod table;
 
-/// What [`table`] is built on. `tests/table_loom.rs` compiles `table.rs` itself beside a `sync`
-/// of its own that names loom's atomics instead, and model-checks the real protocol.
+/// What [`table`] and [`contact_ring`] are built on. `tests/table_loom.rs` and
+/// `tests/contact_ring_loom.rs` compile those files themselves beside a `sync` of their own that
+/// names loom's atomics instead, and model-check the real protocols.
 mod sync {
     pub(crate) use std::hint::spin_loop;
     pub(crate) use std::sync::atomic::{AtomicU64, Ordering, fence};
@@ -33,14 +38,15 @@ use glam::DVec2;
 use parking_lot::{Mutex, RwLock};
 use serde::Serialize;
 
-pub use message::Message;
+pub use message::{Contact, Message};
 pub use shared::{Params, RuntimeConfig};
 pub use table::{BallRecord, BallTable};
 
 use crate::engine::EngineError;
 use crate::physics::{Ball, BallId, BallKind, Bodies, Effects, Field, Integrator, WallImpulses};
 use crate::scene::Scene;
-use monitor::Inboxes;
+use contact_ring::ContactRing;
+use monitor::{Inbox, Inboxes};
 use shared::Shared;
 
 struct Handle {
@@ -266,6 +272,7 @@ impl Runtime {
         let slot = reg.free_slots.pop_first().unwrap_or(high);
         let gravity = self.params().effects.gravity.map_or(DVec2::ZERO, |g| g.g);
         let (tx, rx) = crossbeam_channel::unbounded();
+        let contacts = Arc::new(ContactRing::new());
         {
             // Under the inboxes' write lock, which a monitor pass holds (read) from its read of the
             // table to the horizon it publishes: the ball begins at the horizon, the end of the
@@ -293,12 +300,12 @@ impl Runtime {
                 // written.
                 self.shared.high_water.store(slot + 1, Ordering::Release);
             }
-            inboxes[slot] = Some(tx.clone());
+            inboxes[slot] = Some(Inbox { commands: tx.clone(), contacts: contacts.clone() });
         }
         let shared = self.shared.clone();
         let spawned = std::thread::Builder::new()
             .name(format!("ball-{}", ball.id))
-            .spawn(move || ball_thread::run_ball(shared, slot, ball, rx));
+            .spawn(move || ball_thread::run_ball(shared, slot, ball, rx, contacts));
         match spawned {
             Ok(thread) => {
                 reg.balls.push(Handle {

@@ -57,6 +57,7 @@ use parking_lot::RwLock;
 
 use super::attraction_tree::TreePublisher;
 use super::ball_thread::hold_inside;
+use super::contact_ring::{ContactRing, RingWriter};
 use super::message::{Contact, Grid, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
@@ -70,7 +71,15 @@ use crate::physics::{
 /// read (read lock) by the monitor from its read of the table to the horizon it publishes, so
 /// that once a removal has cleared a slot no message can be sent to the departing ball, and a
 /// ball added is judged from the instant it begins at (see `Runtime::insert`).
-pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Sender<Message>>>>>;
+pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Inbox>>>>;
+
+/// One ball's inbox as the monitor and the runtime hold it: the channel for commands (and for a
+/// response that finds the ring full), and the ring for contact responses.
+#[derive(Clone)]
+pub(crate) struct Inbox {
+    pub commands: Sender<Message>,
+    pub contacts: Arc<ContactRing>,
+}
 
 /// How far ahead of its instant a pass judges the contacts, in monitor periods: the next pass
 /// comes one period later and takes a fraction of one, and the balls must not reach the horizon
@@ -296,7 +305,7 @@ impl<'a> Monitor<'a> {
 
     /// Judges every contact from where the judged time ends to `end` and sends the responses
     /// (with collisions on and a span of any length).
-    fn judge_contacts(&mut self, end: u64, inboxes: &[Option<Sender<Message>>]) {
+    fn judge_contacts(&mut self, end: u64, inboxes: &[Option<Inbox>]) {
         let params = &self.params;
         let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
         let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
@@ -359,6 +368,12 @@ struct PassSetting<'a> {
 struct InFlight {
     id: Option<BallId>,
     sent: u64,
+    /// The ring's producer side for this ball (see `contact_ring`).
+    ring: RingWriter,
+    /// How many of the messages had been sent when the last went by the channel (the ring was
+    /// full): until the ball has applied that many, every message goes by the channel too, so
+    /// that the ball, which takes its ring before its channel, takes them in the order sent.
+    channel_until: u64,
     /// The last `queue.len()` messages sent, oldest first: their sequence numbers run on to
     /// `sent`, and message k is applied once the ball's `applied` count exceeds k (a ball applies
     /// its contact messages in the order they were sent).
@@ -381,9 +396,7 @@ impl InFlight {
     /// misses).
     fn sync(&mut self, r: &BallRecord) -> Option<Sent> {
         if self.id != Some(r.ball.id) {
-            self.id = Some(r.ball.id);
-            self.sent = 0;
-            self.queue.clear();
+            *self = InFlight { id: Some(r.ball.id), ..InFlight::default() };
         }
         let first = self.sent - self.queue.len() as u64;
         let applied = r.applied.saturating_sub(first).min(self.queue.len() as u64) as usize;
@@ -533,7 +546,7 @@ impl ContactPass {
     /// span ([`ContactPass::gather`]), the candidate pairs ([`ContactPass::find_pairs`]), one
     /// solve of every contact ([`ContactPass::solve`]) and one message per touched ball
     /// ([`ContactPass::send_responses`]).
-    fn run(&mut self, shared: &Shared, inboxes: &[Option<Sender<Message>>], records: &[BallRecord], s: &PassSetting) {
+    fn run(&mut self, shared: &Shared, inboxes: &[Option<Inbox>], records: &[BallRecord], s: &PassSetting) {
         self.gather(records, inboxes, s);
         self.find_pairs(s);
         self.solve(shared, s);
@@ -544,7 +557,7 @@ impl ContactPass {
 
     /// Every ball that takes part, at the end of the span in free motion (`balls`), with the
     /// circle its path over the span lies in (`centres`, `reach`) and the fastest speed met.
-    fn gather(&mut self, records: &[BallRecord], inboxes: &[Option<Sender<Message>>], s: &PassSetting) {
+    fn gather(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
         self.balls.clear();
         self.record_of.clear();
         self.starts.clear();
@@ -650,13 +663,7 @@ impl ContactPass {
 
     /// Remembers where the solve left every ball at the span's end (the next pass continues from
     /// there), and sends each ball with a response worth sending one stamped message.
-    fn send_responses(
-        &mut self,
-        shared: &Shared,
-        records: &[BallRecord],
-        inboxes: &[Option<Sender<Message>>],
-        s: &PassSetting,
-    ) {
+    fn send_responses(&mut self, shared: &Shared, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
         let (mut sent, mut dropped) = (0, 0);
         for (i, response) in self.solver.responses().iter().enumerate() {
             let b = &self.balls[i];
@@ -691,15 +698,27 @@ impl ContactPass {
             // in two (under semi-implicit Euler, micrometres); a ball starved of the CPU for a few
             // hundred passes, continued from the solve's end states, was found tens of
             // micrometres from where it was when it next published.
-            let (mut x, mut v) = self.starts[i];
+            // A response at the span's end (resting contacts alone) follows the free motion over
+            // the whole span, which `gather` carried the ball through already, to the bit.
+            let (mut x, mut v, t) = if message.apply_at == s.end {
+                (b.position, b.velocity, s.end)
+            } else {
+                (self.starts[i].0, self.starts[i].1, s.start)
+            };
             let a = b.acceleration;
-            follow(&s.motion, &s.params.field, (&mut x, &mut v, s.start), &message, &r.ball, a, &mut self.scratch);
+            follow(&s.motion, &s.params.field, (&mut x, &mut v, t), &message, &r.ball, a, &mut self.scratch);
             (judged.position, judged.velocity) = (x, v);
             self.judged[r.slot] = Some(judged);
-            let Some(tx) = inbox(inboxes, r) else { continue };
-            // Fails only if the ball's thread is gone (it panicked): counted as dropped.
-            if tx.send(Message::Contact(message)).is_ok() {
-                self.in_flight[r.slot].push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
+            let Some(inbox) = inbox(inboxes, r) else { continue };
+            let in_flight = &mut self.in_flight[r.slot];
+            let by_ring = r.applied >= in_flight.channel_until && inbox.contacts.push(&mut in_flight.ring, &message);
+            // The channel's send fails only if the ball's thread is gone (it panicked): counted
+            // as dropped.
+            if by_ring || inbox.commands.send(Message::Contact(message)).is_ok() {
+                if !by_ring {
+                    in_flight.channel_until = in_flight.sent + 1;
+                }
+                in_flight.push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
                 sent += 1;
             } else {
                 dropped += 1;
@@ -741,7 +760,7 @@ fn follow(
 }
 
 /// The inbox of the ball of record `r`, if it is still on the field.
-fn inbox<'a>(inboxes: &'a [Option<Sender<Message>>], r: &BallRecord) -> Option<&'a Sender<Message>> {
+fn inbox<'a>(inboxes: &'a [Option<Inbox>], r: &BallRecord) -> Option<&'a Inbox> {
     inboxes.get(r.slot).and_then(|s| s.as_ref())
 }
 

@@ -1,0 +1,138 @@
+//! A ball's contact inbox: the monitor's responses to one ball, in a ring of slots that the
+//! monitor (its only producer) fills and the ball's thread (its only consumer) empties, in order.
+//! All atomic words, no `unsafe`: a racing read is never undefined behaviour.
+//!
+//! **Why a ring beside the ball's channel.** The monitor sends every ball of a pile one response
+//! a pass. Through the ball's crossbeam channel each send took two locked read-modify-writes
+//! (the channel's tail index and the slot's ready bit) on cache lines the ball's core had last
+//! touched, and the pass waited on each miss: on the settled 1,024-ball pile, 19 % of the
+//! monitor's time was in `Channel::send` (perf, 2026-12-02). A push here is plain stores (on
+//! x86 a release store is an ordinary `mov`): the store buffer absorbs the misses and the pass
+//! goes on. Commands (the pull, a mass, a throw, stop) still come by the channel, and so does a
+//! response that finds the ring full (see [`ContactRing::push`]); the caller keeps the order.
+//!
+//! Protocol (`cap` slots, a power of two; response `k` goes in slot `k % cap`):
+//! - **producer** (the monitor): it counts the responses it pushed (`pushed`) and keeps the last
+//!   `taken` it read. Response `k = pushed` fits if `k − taken < cap`; if not by the count it
+//!   has, it reads `taken` again (acquire), and if still not, the push fails. Otherwise it writes
+//!   the slot's words (relaxed), then the slot's `seq ← k + 1` (release).
+//! - **consumer** (the ball's thread): it counts the responses it took (`next`). Response
+//!   `next` is there when its slot's `seq` (acquire) reads `next + 1`; it reads the words
+//!   (relaxed) and counts it. After taking what is there, it stores `taken ← next` (release).
+//!
+//! Orderings: the release store of `seq` and the consumer's acquire load of it make the words
+//! written before it visible to the reads after it. The consumer's release store of `taken`
+//! after its reads, and the producer's acquire load of it before it writes the slot again (one
+//! lap later), order those reads before the new writes, so a slot is never rewritten while it is
+//! read: a response is never read torn. A slot's `seq` from an older lap (`next + 1 − cap`) or
+//! zero reads as empty.
+
+use super::message::Contact;
+// The atomics come from the parent module: std's here, loom's when `tests/contact_ring_loom.rs`
+// compiles this very file into a loom model.
+use super::sync::{AtomicU64, Ordering};
+
+/// Slots per ring: a ball whose thread takes its inbox at least once in this many passes never
+/// needs the channel for a response (4 KB a ball). On the 1,024-ball pile a ball takes its inbox
+/// every few passes.
+pub(crate) const RING_SLOTS: usize = 256;
+
+/// One response: `seq` (0, or the response's number + 1) and its six words.
+#[repr(align(64))] // one slot per cache line
+struct RingSlot {
+    seq: AtomicU64,
+    words: [AtomicU64; 6],
+}
+
+/// `taken` on a cache line of its own: the consumer writes it, and the producer, which reads the
+/// ring's other fields every push, reads it only when the ring looks full.
+#[repr(align(64))]
+struct Taken(AtomicU64);
+
+/// The ring (see the module comment), `N` slots (a power of two), its slots in the ring itself:
+/// the producer finds a slot from the ring's address alone, reading none of its other lines.
+pub(crate) struct ContactRing<const N: usize = RING_SLOTS> {
+    taken: Taken,
+    slots: [RingSlot; N],
+}
+
+/// The producer's side of one ring: how many it pushed, and the consumer's count as last read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct RingWriter {
+    pushed: u64,
+    taken_seen: u64,
+}
+
+impl<const N: usize> ContactRing<N> {
+    const MASK: u64 = {
+        assert!(N.is_power_of_two(), "a ring's slots are a power of two");
+        N as u64 - 1
+    };
+
+    /// An empty ring.
+    pub(crate) fn new() -> Self {
+        ContactRing {
+            taken: Taken(AtomicU64::new(0)),
+            slots: std::array::from_fn(|_| RingSlot {
+                seq: AtomicU64::new(0),
+                words: std::array::from_fn(|_| AtomicU64::new(0)),
+            }),
+        }
+    }
+
+    /// Pushes `m` (producer only, with its own `writer`); returns false, pushing nothing, if the
+    /// ring is full.
+    pub(crate) fn push(&self, writer: &mut RingWriter, m: &Contact) -> bool {
+        let k = writer.pushed;
+        if k - writer.taken_seen > Self::MASK {
+            // Acquire: pairs with the consumer's Release store after its reads (see the module
+            // comment): the slot about to be rewritten has been read.
+            writer.taken_seen = self.taken.0.load(Ordering::Acquire);
+            if k - writer.taken_seen > Self::MASK {
+                return false;
+            }
+        }
+        let slot = &self.slots[(k & Self::MASK) as usize];
+        let words = [m.dv.x.to_bits(), m.dv.y.to_bits(), m.dx.x.to_bits(), m.dx.y.to_bits(), m.stamp, m.apply_at];
+        for (word, value) in slot.words.iter().zip(words) {
+            // Relaxed: published by the Release store of `seq` below.
+            word.store(value, Ordering::Relaxed);
+        }
+        // Release: the words above are visible to a consumer that Acquires this value.
+        slot.seq.store(k + 1, Ordering::Release);
+        writer.pushed = k + 1;
+        true
+    }
+
+    /// Takes the response numbered `*next` if it is there (consumer only), counting it.
+    pub(crate) fn pop(&self, next: &mut u64) -> Option<Contact> {
+        let slot = &self.slots[(*next & Self::MASK) as usize];
+        // Acquire: pairs with the producer's Release store of this value.
+        if slot.seq.load(Ordering::Acquire) != *next + 1 {
+            return None;
+        }
+        // Relaxed: ordered after the Acquire load above.
+        let w: [u64; 6] = std::array::from_fn(|i| slot.words[i].load(Ordering::Relaxed));
+        *next += 1;
+        Some(Contact {
+            dv: glam::DVec2::new(f64::from_bits(w[0]), f64::from_bits(w[1])),
+            dx: glam::DVec2::new(f64::from_bits(w[2]), f64::from_bits(w[3])),
+            stamp: w[4],
+            apply_at: w[5],
+        })
+    }
+
+    /// Tells the producer that every response before `next` has been taken (consumer only).
+    pub(crate) fn release(&self, next: u64) {
+        // Release: the reads of the slots taken happen before a producer that Acquires this
+        // value rewrites them.
+        self.taken.0.store(next, Ordering::Release);
+    }
+}
+
+/// Compile-time check: the monitor and the ball's thread share the ring through an `Arc`, so it
+/// is `Send` and `Sync` (all its fields are atomics).
+const _: () = {
+    const fn shared<T: Send + Sync>() {}
+    shared::<ContactRing>();
+};
