@@ -853,7 +853,8 @@ impl Tolerances {
 
 /// One active resting contact, packed for the resting passes of [`ContactSolver::solve`]: a
 /// wall's `b` is the extra velocity slot past the last ball, which holds zero and, with
-/// `inverse_mass_b` zero, stays so. The passes then read one cache line per contact and never
+/// `inverse_mass_b` zero, stays so. The passes then read one cache line per contact (checked at
+/// compile time below; a row's contact is the low bits of its key in the order) and never
 /// branch on its kind. The arithmetic is [`resting_pass`]'s but for its division by the inverse
 /// masses' sum, a product with `mass` here (the same bits when that sum is a power of two, as for
 /// equal unit masses): the division's latency bounded the pass. Measured on the settled `pile`
@@ -870,9 +871,10 @@ struct RestingRow {
     mass: f64,
     target: f64,
     impulse: f64,
-    /// The row's contact: its index in the list.
-    contact: u32,
 }
+
+// One cache line a row.
+const _: () = assert!(std::mem::size_of::<RestingRow>() == 64);
 
 /// [`resting_pass`] over packed rows (see [`RestingRow`]).
 fn resting_rows_pass(rows: &mut [RestingRow], v: &mut [DVec2], backward: bool) -> f64 {
@@ -1116,7 +1118,6 @@ impl ContactSolver {
                     mass: 1.0 / (c.inverse_mass_a + c.inverse_mass_b),
                     target: c.target,
                     impulse: c.impulse,
-                    contact: k,
                 }
             }));
             self.velocity.push(DVec2::ZERO);
@@ -1132,8 +1133,9 @@ impl ContactSolver {
                 }
             }
             self.velocity.pop();
-            for r in &self.rows {
-                list[r.contact as usize].impulse = r.impulse;
+            // Row k is the contact in the low bits of the k-th key (see `order_by_height`).
+            for (r, &key) in self.rows.iter().zip(&self.order) {
+                list[key as u32 as usize].impulse = r.impulse;
             }
         }
         resting_end(list, &mut self.position, 0, span, params.drift, &mut tally.walls);
