@@ -18,7 +18,10 @@
 #              REPEAT runs: pairs that passed through each other, worst velocity error.
 #   speed      the monitor and the balls at 1,024 balls: a gas (no contacts to speak of) and the
 #              pile scene with 1,024 balls, settled first: updates a second per ball (slowest,
-#              median), monitor passes a second and its mean and longest pass.
+#              median), monitor passes a second and its mean and longest pass. First, once and
+#              after the runs, the machine's ceiling in this sitting: turns a second per thread
+#              of 1,024 SCHED_IDLE threads that only yield (examples/turn_ceiling.rs), which no
+#              ball thread can beat.
 # SETTLE (default 20), WATCH (10), REPEAT (3), SPEED_SECONDS (10) in the environment.
 # BALLFIELD_BIN=PATH: measure that binary instead of building this checkout.
 set -euo pipefail
@@ -152,6 +155,10 @@ PY
   done
   ;;
 speed)
+  cargo build --release --quiet --example turn_ceiling
+  ceiling="${CARGO_TARGET_DIR:-target}/release/examples/turn_ceiling"
+  echo "ceiling before: $("$ceiling" --threads 1024 --seconds 5)"
+  echo
   echo "| scene | balls | slowest ball /s | median /s | monitor passes /s | mean pass ms | longest pass ms | CPU cores | others' cores | load before |"
   echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
   cat > "$dir/gas1024.toml" <<TOML
@@ -190,6 +197,8 @@ print(f"| {sys.argv[2]} | {r['balls']} | {t['ball_rate_min']:.0f} | {t['ball_rat
 PY
     done
   done
+  echo
+  echo "ceiling after: $("$ceiling" --threads 1024 --seconds 5)"
   ;;
 *)
   echo "unknown part: $part" >&2
