@@ -177,10 +177,38 @@ pub fn drag_rate(velocity: DVec2, diameter: f64, mass: f64, drag: &Drag) -> f64 
 /// step's start, the explicit stages overshoot through zero, and it runs away to NaN.
 #[inline]
 pub fn drag_rate_bound(velocity: DVec2, acceleration: DVec2, diameter: f64, mass: f64, drag: &Drag) -> f64 {
-    let now = drag_rate(velocity, diameter, mass, drag);
-    match drag {
-        Drag::Quadratic { .. } => now.max((acceleration.length() * drag_rate(DVec2::X, diameter, mass, drag)).sqrt()),
-        Drag::Linear { .. } => now,
+    DragRateBound::new(acceleration, diameter, mass, drag).at(velocity)
+}
+
+/// [`drag_rate_bound`] for one ball under one acceleration, asked at many velocities: the
+/// terminal-speed rate (two square roots and a division) worked out once. The same bits as
+/// [`drag_rate_bound`] at every velocity. The threaded monitor asks it at every sub-step of every
+/// ball it carries over a pass.
+#[derive(Clone, Copy, Debug)]
+pub struct DragRateBound<'a> {
+    drag: &'a Drag,
+    diameter: f64,
+    mass: f64,
+    /// The rate at the terminal speed (quadratic drag), or none (linear drag).
+    terminal: Option<f64>,
+}
+
+impl<'a> DragRateBound<'a> {
+    /// The bound for a ball of `diameter` and `mass` that the other forces give `acceleration`.
+    #[inline]
+    pub fn new(acceleration: DVec2, diameter: f64, mass: f64, drag: &'a Drag) -> Self {
+        let terminal = match drag {
+            Drag::Quadratic { .. } => Some((acceleration.length() * drag_rate(DVec2::X, diameter, mass, drag)).sqrt()),
+            Drag::Linear { .. } => None,
+        };
+        DragRateBound { drag, diameter, mass, terminal }
+    }
+
+    /// The bound at `velocity`.
+    #[inline]
+    pub fn at(&self, velocity: DVec2) -> f64 {
+        let now = drag_rate(velocity, self.diameter, self.mass, self.drag);
+        self.terminal.map_or(now, |terminal| now.max(terminal))
     }
 }
 

@@ -35,10 +35,10 @@ pub use diagnostics::{
     momentum,
 };
 pub use effects::{
-    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, DEFAULT_OPENING_ANGLE, Drag, Effects, Gravity, MAX_DRAG_STEP,
-    MAX_ORBIT_STEP, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force, attraction_pair,
-    attraction_potential, attraction_rate_squared, cap_drag_rate, drag_force, drag_rate, drag_rate_bound,
-    gravity_force, gravity_potential, quadratic_terminal_speed,
+    AIR_DENSITY, AIR_VISCOSITY, Attraction, Collisions, DEFAULT_OPENING_ANGLE, Drag, DragRateBound, Effects, Gravity,
+    MAX_DRAG_STEP, MAX_ORBIT_STEP, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY, attraction_force,
+    attraction_pair, attraction_potential, attraction_rate_squared, cap_drag_rate, drag_force, drag_rate,
+    drag_rate_bound, gravity_force, gravity_potential, quadratic_terminal_speed,
 };
 pub use event::{
     CLOSING_SLACK, Collision, Mobility, closing_slack, collide, cone_contains, entry_time, first_entry, flight,

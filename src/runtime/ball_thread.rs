@@ -59,8 +59,9 @@ struct BallState {
     time: u64,
     /// Contact messages received and not applied yet, oldest first (see `catch_up`).
     held: VecDeque<Contact>,
-    /// Contact responses taken from the ring so far (see `contact_ring`).
+    /// Contact responses taken from the ring and from the channel so far (see `contact_ring`).
     taken: u64,
+    from_channel: u64,
     /// Cycles since the last flush that took attraction from the tree / read the table directly.
     tree_cycles: u64,
     direct_cycles: u64,
@@ -169,15 +170,16 @@ enum Handled {
     Stop,
 }
 
-/// Runs one ball until it is told to stop (or every sender is gone). `ball` is already in the
-/// table at `slot` (written by the runtime before this thread started).
+/// Runs one ball until it is told to stop (or every sender is gone); returns how many contact
+/// messages it was sent and never applied (those in flight when it stopped). `ball` is already in
+/// the table at `slot` (written by the runtime before this thread started).
 pub(crate) fn run_ball(
     shared: Arc<Shared>,
     slot: usize,
     ball: Ball,
     inbox: Receiver<Message>,
     contacts: Arc<ContactRing>,
-) {
+) -> u64 {
     let _guard = PanicGuard { shared: &shared, slot };
     // The key ball is the one the player steers and watches: it keeps the ordinary policy, so its
     // updates (the pull's answer) never wait behind the crowd or another program's load. One
@@ -199,6 +201,7 @@ pub(crate) fn run_ball(
         time,
         held: VecDeque::new(),
         taken: 0,
+        from_channel: 0,
         tree_cycles: 0,
         direct_cycles: 0,
         longest_cycle: 0,
@@ -236,7 +239,11 @@ pub(crate) fn run_ball(
                     commands.apply(&mut state);
                     state.publish(&shared, &params);
                     state.flush_counts(&shared);
-                    return;
+                    // Everything the monitor sent is in the inbox by now (it sends nothing once
+                    // the runtime has taken the ball off its list, before the stop): what the
+                    // ball holds and what is left in its ring were sent and will never be applied.
+                    take_ring(&contacts, &mut state);
+                    return state.held.len() as u64;
                 }
             }
         };
@@ -304,13 +311,10 @@ enum Inbox {
 /// Takes every message in the inbox: contact responses are held (applied in `catch_up`) in the
 /// order the monitor sent them, commands kept in `commands` until they take effect.
 ///
-/// The order: the monitor sends a response by the channel only when the ring is full, and then
-/// sends every response by the channel until the ball has applied those (see
-/// `monitor::InFlight`). So every response in the ring is older than any response in the channel,
-/// and the ring is taken first; and before a response from the channel, the ring is taken again:
-/// the ring may have filled while the thread was away since (a stall, or the machine starving it)
-/// with responses older than that one, and pushed before it was sent, so they are in the ring by
-/// the time it is received.
+/// The order (see `contact_ring`): the ring first, and the ring again before each response from
+/// the channel (the ring may have filled while the thread was away since, a stall or the machine
+/// starving it, with responses older than that one); each response from the channel is counted
+/// for the monitor once it is held, which is when the monitor may use the ring again.
 fn take_inbox(
     inbox: &Receiver<Message>,
     contacts: &ContactRing,
@@ -321,10 +325,16 @@ fn take_inbox(
     loop {
         match inbox.try_recv() {
             Ok(message) => {
-                if let Message::Contact(_) = message {
+                let contact = matches!(message, Message::Contact(_));
+                if contact {
                     take_ring(contacts, state);
                 }
-                match handle(message, state, commands) {
+                let handled = handle(message, state, commands);
+                if contact {
+                    state.from_channel += 1;
+                    contacts.note_from_channel(state.from_channel);
+                }
+                match handled {
                     Handled::Stop => return Inbox::Stop,
                     Handled::Stalled => got = Inbox::Stalled,
                     Handled::Continue => {

@@ -54,7 +54,9 @@ struct Handle {
     kind: BallKind,
     slot: usize,
     inbox: Sender<Message>,
-    thread: JoinHandle<()>,
+    /// Returns how many contact messages the ball was sent and never applied (see
+    /// `ball_thread::run_ball`).
+    thread: JoinHandle<u64>,
     started: Instant,
 }
 
@@ -62,6 +64,9 @@ struct Handle {
 #[derive(Clone, Copy, Debug, Default)]
 struct Retired {
     applied: u64,
+    /// Contact messages sent to balls that left and never applied (those in flight when a ball is
+    /// removed), so that every message sent is accounted for (see [`Runtime::settle`]).
+    unapplied: u64,
     walls: WallImpulses,
 }
 
@@ -70,6 +75,9 @@ struct Registry {
     balls: Vec<Handle>,
     free_slots: BTreeSet<usize>,
     next_id: u32,
+    /// Balls started so far: each start's number tells the monitor a ball put back with its own
+    /// id (a grab and throw) from the ball it was, whose messages and ring it must forget.
+    incarnations: u64,
     retired: Retired,
     /// Messages of ball threads that panicked, as reported when they were joined.
     panics: Vec<String>,
@@ -191,6 +199,7 @@ impl Runtime {
                 balls: Vec::new(),
                 free_slots: BTreeSet::new(),
                 next_id: 0,
+                incarnations: 0,
                 retired: Retired::default(),
                 panics: Vec::new(),
             }),
@@ -300,7 +309,9 @@ impl Runtime {
                 // written.
                 self.shared.high_water.store(slot + 1, Ordering::Release);
             }
-            inboxes[slot] = Some(Inbox { commands: tx.clone(), contacts: contacts.clone() });
+            reg.incarnations += 1;
+            inboxes[slot] =
+                Some(Inbox { commands: tx.clone(), contacts: contacts.clone(), incarnation: reg.incarnations });
         }
         let shared = self.shared.clone();
         let spawned = std::thread::Builder::new()
@@ -360,10 +371,13 @@ impl Runtime {
             w.bottom += last.wall_impulses.bottom;
             w.top += last.wall_impulses.top;
         }
-        if let Err(payload) = joined {
-            let message = format!("ball {}: {}", h.id, panic_message(payload));
-            log::error!("a ball thread panicked: {message}");
-            reg.panics.push(message);
+        match joined {
+            Ok(unapplied) => reg.retired.unapplied += unapplied,
+            Err(payload) => {
+                let message = format!("ball {}: {}", h.id, panic_message(payload));
+                log::error!("a ball thread panicked: {message}");
+                reg.panics.push(message);
+            }
         }
         // The thread is joined: the runtime is the slot's only writer again.
         self.shared.table.clear(h.slot);
@@ -484,7 +498,8 @@ impl Runtime {
             let horizon = self.shared.horizon.load(Ordering::Acquire);
             let records = self.snapshot();
             let sent = self.shared.contact_messages_sent.load(Ordering::Relaxed);
-            let applied = self.registry.lock().retired.applied + records.iter().map(|r| r.applied).sum::<u64>();
+            let retired = self.registry.lock().retired;
+            let applied = retired.applied + retired.unapplied + records.iter().map(|r| r.applied).sum::<u64>();
             sent == applied && records.iter().all(|r| r.time == horizon)
         })
     }

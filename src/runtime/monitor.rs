@@ -18,8 +18,8 @@
 //! contact of every ball over the span in one call — impacts swept from the span's start (a pair
 //! that passed through each other in the free motion is found by its time of impact), resting
 //! contacts, walls — and each ball with a response gets it as one [`Contact`] message stamped
-//! with the span's end, to be applied at its first impact in the span (resting contacts: at the
-//! span's start). Last, the pass publishes the span's end as the horizon: no ball integrates past
+//! with the span's end, to be applied at its first impact in the span (resting contacts alone:
+//! at the span's end, where the solve found them). Last, the pass publishes the span's end as the horizon: no ball integrates past
 //! it before the next pass has judged further, so every response reaches its ball before the
 //! ball reaches the instant it is for.
 //!
@@ -62,9 +62,9 @@ use super::message::{Contact, Grid, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
-    Attraction, AttractionMethod, Ball, BallId, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag, Field,
-    Integrator, IntegratorScratch, SolverBall, SpanRates, StepPolicy, TREE_MIN_BALLS, WallImpulses, cap_drag_rate,
-    cap_speed, drag_force, drag_rate_bound, integrate, resting_drift, swept_circle,
+    Attraction, AttractionMethod, Ball, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag, DragRateBound,
+    Field, Integrator, IntegratorScratch, SolverBall, SpanRates, StepPolicy, TREE_MIN_BALLS, WallImpulses,
+    cap_drag_rate, cap_speed, drag_force, integrate, resting_drift, swept_circle,
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
@@ -79,6 +79,9 @@ pub(crate) type Inboxes = Arc<RwLock<Vec<Option<Inbox>>>>;
 pub(crate) struct Inbox {
     pub commands: Sender<Message>,
     pub contacts: Arc<ContactRing>,
+    /// Which start of a ball this is (the runtime numbers them): a ball put back with its own id
+    /// is a new start, with a new ring and its `applied` count from zero.
+    pub incarnation: u64,
 }
 
 /// How far ahead of its instant a pass judges the contacts, in monitor periods: the next pass
@@ -366,25 +369,20 @@ struct PassSetting<'a> {
 /// was sent in all (a slot is reused by a later ball, whose own counts start from zero).
 #[derive(Default)]
 struct InFlight {
-    id: Option<BallId>,
+    /// The ball's start these counts are of (see [`Inbox::incarnation`]).
+    incarnation: Option<u64>,
     sent: u64,
     /// The ring's producer side for this ball (see `contact_ring`).
     ring: RingWriter,
-    /// How many of the messages had been sent when the last went by the channel (the ring was
-    /// full): until the ball has applied that many, every message goes by the channel too, so
-    /// that the ball, which takes its ring before its channel, takes them in the order sent.
-    channel_until: u64,
-    /// The messages in flight are `queue` then `newest`, oldest first: the last of them is
-    /// numbered `sent − 1`, and message k is applied once the ball's `applied` count exceeds k (a
-    /// ball applies its contact messages in the order they were sent). `newest` is the last sent
-    /// whenever any is in flight.
-    ///
-    /// Why the newest apart: a ball in a pile, sent a message every pass, has usually applied
-    /// all but none of them when the next pass reads it, and then the queue is never touched —
-    /// kept in each slot's own heap block, it was a cache miss a ball a pass to write and one to
-    /// read (a twelfth of the monitor's time on the 1,024-ball pile).
+    /// Messages sent by the channel (the ring was full), and how many of them the ball had taken
+    /// when last read: while they differ, every message goes by the channel too (see
+    /// `contact_ring`, the order).
+    by_channel: u64,
+    channel_seen: u64,
+    /// The last `queue.len()` messages sent, oldest first: their sequence numbers run on to
+    /// `sent`, and message k is applied once the ball's `applied` count exceeds k (a ball applies
+    /// its contact messages in the order they were sent).
     queue: VecDeque<Sent>,
-    newest: Option<Sent>,
 }
 
 /// A contact message sent, and the ball as the pass that sent it carried it to the message's
@@ -396,40 +394,26 @@ struct Sent {
 }
 
 impl InFlight {
-    /// Forgets what the record says was applied; resets for a new ball in the slot. Returns the
+    /// Forgets what the record says was applied; resets for a new ball in the slot (or the same
+    /// ball started again: see [`Inbox::incarnation`]). Returns the
     /// newest message it forgot, if any (the ball has applied it since the last pass). The count
     /// alone says how many to forget: the queue's messages are not read but that one (on a
     /// 1,024-ball pile, reading each slot's oldest message took a twentieth of the pass in cache
     /// misses).
-    fn sync(&mut self, r: &BallRecord) -> Option<Sent> {
-        if self.id != Some(r.ball.id) {
-            *self = InFlight { id: Some(r.ball.id), ..InFlight::default() };
+    fn sync(&mut self, r: &BallRecord, incarnation: u64) -> Option<Sent> {
+        if self.incarnation != Some(incarnation) {
+            *self = InFlight { incarnation: Some(incarnation), ..InFlight::default() };
         }
-        let len = self.queue.len() + usize::from(self.newest.is_some());
-        let first = self.sent - len as u64;
-        let applied = r.applied.saturating_sub(first).min(len as u64) as usize;
-        if applied == 0 {
-            return None;
-        }
-        if applied == len {
-            self.queue.clear();
-            return self.newest.take();
-        }
-        let newest = self.queue[applied - 1];
+        let first = self.sent - self.queue.len() as u64;
+        let applied = r.applied.saturating_sub(first).min(self.queue.len() as u64) as usize;
+        let newest = applied.checked_sub(1).map(|k| self.queue[k]);
         self.queue.drain(..applied);
-        Some(newest)
-    }
-
-    /// The messages in flight, oldest first.
-    fn messages(&self) -> impl Iterator<Item = &Sent> {
-        self.queue.iter().chain(&self.newest)
+        newest
     }
 
     /// Notes a message sent.
     fn push(&mut self, sent: Sent) {
-        if let Some(older) = self.newest.replace(sent) {
-            self.queue.push_back(older);
-        }
+        self.queue.push_back(sent);
         self.sent += 1;
     }
 }
@@ -438,7 +422,8 @@ impl InFlight {
 /// of which record: while the ball publishes nothing newer, the next pass continues from here.
 #[derive(Clone, Copy)]
 struct Judged {
-    id: BallId,
+    /// The ball's start (see [`Inbox::incarnation`]).
+    incarnation: u64,
     record_time: u64,
     record_applied: u64,
     time: u64,
@@ -482,19 +467,22 @@ impl Motion<'_> {
         to: u64,
         scratch: &mut IntegratorScratch,
     ) {
+        let bound = self.drag.map(|d| DragRateBound::new(a, ball.diameter, ball.mass, d));
         for (from, to) in self.grid.pieces(from, to) {
-            self.advance_piece(x, v, ball, a, clock_seconds(to, from) * self.time_scale, scratch);
+            self.advance_piece(x, v, ball, a, bound.as_ref(), clock_seconds(to, from) * self.time_scale, scratch);
         }
     }
 
     /// [`Motion::advance`] over one piece of the grid, `dt` simulated seconds long, as the ball
-    /// thread's `advance` takes it.
+    /// thread's `advance` takes it; `bound`: the ball's drag rate bound under `a` (with drag on).
+    #[allow(clippy::too_many_arguments)]
     fn advance_piece(
         &self,
         x: &mut DVec2,
         v: &mut DVec2,
         ball: &Ball,
         a: DVec2,
+        bound: Option<&DragRateBound<'_>>,
         dt: f64,
         scratch: &mut IntegratorScratch,
     ) {
@@ -506,7 +494,7 @@ impl Motion<'_> {
         let (mut xs, mut vs) = ([*x], [*v]);
         let mut left = dt;
         while left > 0.0 {
-            let drag = self.drag.map_or(0.0, |d| drag_rate_bound(vs[0], a, ball.diameter, ball.mass, d));
+            let drag = bound.map_or(0.0, |b| b.at(vs[0]));
             // With one sub-step, `h` is exactly what is left, so `left` becomes exactly zero.
             let sub = policy.split(left, &SpanRates { drag, ..SpanRates::default() });
             let limit = sub.drag_rate_limit;
@@ -587,14 +575,15 @@ impl ContactPass {
         self.reach.clear();
         self.fastest = 0.0;
         for (k, r) in records.iter().enumerate() {
-            let applied = self.in_flight[r.slot].sync(r);
             // A ball being removed takes part in no contact: its partners get no half-impulse
             // it would not get.
-            if inbox(inboxes, r).is_none() || !r.ball.is_finite() || !(r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
+            let Some(incarnation) = inbox(inboxes, r).map(|i| i.incarnation) else { continue };
+            let applied = self.in_flight[r.slot].sync(r, incarnation);
+            if !(r.ball.is_finite() && r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
                 continue;
             }
             let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
-            let (x_start, v_start) = self.span_start(r, a, applied, s);
+            let (x_start, v_start) = self.span_start(r, incarnation, a, applied, s);
             let (mut x, mut v) = (x_start, v_start);
             s.motion.advance(&mut x, &mut v, &r.ball, a, s.start, s.end, &mut self.scratch);
             self.fastest = self.fastest.max(v_start.length()).max(v.length());
@@ -631,8 +620,15 @@ impl ContactPass {
     /// is where the ball will be: the record is not carried again (on a 1,024-ball pile, where a
     /// ball publishes every five or six passes, carrying each through its messages in flight was
     /// a tenth of the pass).
-    fn span_start(&mut self, r: &BallRecord, a: DVec2, applied: Option<Sent>, s: &PassSetting) -> (DVec2, DVec2) {
-        let last = self.judged[r.slot].filter(|j| j.id == r.ball.id && j.time == s.start);
+    fn span_start(
+        &mut self,
+        r: &BallRecord,
+        incarnation: u64,
+        a: DVec2,
+        applied: Option<Sent>,
+        s: &PassSetting,
+    ) -> (DVec2, DVec2) {
+        let last = self.judged[r.slot].filter(|j| j.incarnation == incarnation && j.time == s.start);
         if let Some(j) = last.filter(|j| j.record_time == r.time && j.record_applied == r.applied) {
             return (j.position, j.velocity);
         }
@@ -641,7 +637,7 @@ impl ContactPass {
             return (j.position, j.velocity);
         }
         let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
-        for Sent { message: m, .. } in self.in_flight[r.slot].messages() {
+        for Sent { message: m, .. } in &self.in_flight[r.slot].queue {
             t = follow(&s.motion, &s.params.field, (&mut x, &mut v, t), m, &r.ball, a, &mut self.scratch);
         }
         s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
@@ -690,8 +686,9 @@ impl ContactPass {
         for (i, response) in self.solver.responses().iter().enumerate() {
             let b = &self.balls[i];
             let r = &records[self.record_of[i] as usize];
+            let Some(inbox) = inbox(inboxes, r) else { continue };
             let mut judged = Judged {
-                id: r.ball.id,
+                incarnation: inbox.incarnation,
                 record_time: r.time,
                 record_applied: r.applied,
                 time: s.end,
@@ -731,14 +728,20 @@ impl ContactPass {
             follow(&s.motion, &s.params.field, (&mut x, &mut v, t), &message, &r.ball, a, &mut self.scratch);
             (judged.position, judged.velocity) = (x, v);
             self.judged[r.slot] = Some(judged);
-            let Some(inbox) = inbox(inboxes, r) else { continue };
             let in_flight = &mut self.in_flight[r.slot];
-            let by_ring = r.applied >= in_flight.channel_until && inbox.contacts.push(&mut in_flight.ring, &message);
+            // The ring only once the ball holds every message sent by the channel (read again
+            // only while some are out: the count is on a line the ball writes).
+            let ring_open = in_flight.by_channel == in_flight.channel_seen || {
+                in_flight.channel_seen = inbox.contacts.taken_from_channel();
+                in_flight.by_channel == in_flight.channel_seen
+            };
+            let by_ring = ring_open && inbox.contacts.push(&mut in_flight.ring, &message);
             // The channel's send fails only if the ball's thread is gone (it panicked): counted
-            // as dropped.
+            // as dropped. (A push to the ring of a ball that panicked counts as sent: its slot is
+            // cleared at once, so for a pass at most.)
             if by_ring || inbox.commands.send(Message::Contact(message)).is_ok() {
                 if !by_ring {
-                    in_flight.channel_until = in_flight.sent + 1;
+                    in_flight.by_channel += 1;
                 }
                 in_flight.push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
                 sent += 1;
