@@ -15,6 +15,8 @@
 //! loom does not model; the module comment argues it. Widen by hand:
 //! `LOOM_MAX_PREEMPTIONS=3 cargo test --release --test contact_ring_loom`.
 
+mod loom_model;
+
 #[allow(dead_code)]
 mod sync {
     pub(crate) use loom::sync::atomic::{AtomicU64, Ordering};
@@ -31,20 +33,13 @@ mod contact_ring;
 use contact_ring::{ContactRing, RingWriter};
 use glam::DVec2;
 use loom::sync::Arc;
+use loom_model::model;
 use message::Contact;
 
 /// Response number `k`: every word a different function of `k`, so a torn one is recognised.
 fn response(k: u64) -> Contact {
     let f = k as f64;
     Contact { dv: DVec2::new(f + 0.5, -f), dx: DVec2::new(0.25 * f, 2.0 * f), stamp: 10 * k + 3, apply_at: 10 * k + 1 }
-}
-
-fn model(f: impl Fn() + Sync + Send + 'static) {
-    let mut builder = loom::model::Builder::new();
-    if builder.preemption_bound.is_none() {
-        builder.preemption_bound = Some(1);
-    }
-    builder.check(f);
 }
 
 /// On one thread: responses come out in order, and a full ring refuses a push until the

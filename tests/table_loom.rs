@@ -21,6 +21,8 @@
 //! LOOM_MAX_PREEMPTIONS=3 cargo test --release --test table_loom
 //! ```
 
+mod loom_model;
+
 #[allow(dead_code)]
 mod sync {
     pub(crate) use loom::hint::spin_loop;
@@ -37,6 +39,7 @@ mod table;
 
 use glam::DVec2;
 use loom::sync::Arc;
+use loom_model::model;
 use physics::{Ball, BallId, BallKind, WallImpulses};
 use table::{BallRecord, BallTable, Slot};
 
@@ -67,14 +70,6 @@ fn whole(r: &BallRecord) -> u64 {
     let k = r.applied - 100;
     assert_eq!(*r, record(k), "torn record: words of different writes");
     k
-}
-
-fn model(f: impl Fn() + Sync + Send + 'static) {
-    let mut builder = loom::model::Builder::new();
-    if builder.preemption_bound.is_none() {
-        builder.preemption_bound = Some(1);
-    }
-    builder.check(f);
 }
 
 /// The latch itself, on a slot of two words (the table's slots are the same code with 16): one
