@@ -57,6 +57,19 @@ impl<T: OtherBalls + ?Sized> OtherBalls for &T {
     }
 }
 
+/// No other balls: for passes on one ball whose engine leaves the others' pull out (the
+/// threaded monitor's prediction of a ball's free motion; the ball's thread takes attraction from
+/// the tree).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NoOtherBalls;
+
+impl OtherBalls for NoOtherBalls {
+    #[inline]
+    fn force_at(&self, _: DVec2, _: f64, _: f64, _: &Attraction) -> DVec2 {
+        DVec2::ZERO
+    }
+}
+
 /// The force passes on one ball alone (see [`Forces::on_ball`]).
 #[derive(Clone, Copy, Debug)]
 pub struct BallForces<'a, O> {

@@ -4,6 +4,7 @@
 //! re-exported here (Rapier's habit).
 
 mod ball;
+mod ball_steps;
 mod barnes_hut;
 mod bodies;
 mod broad_phase;
@@ -19,6 +20,7 @@ mod step_policy;
 mod sweep;
 
 pub use ball::{Ball, BallId, BallKind, disc_area};
+pub use ball_steps::{BallSteps, advance_ball};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
@@ -45,7 +47,9 @@ pub use event::{
     pair_gap_polynomial, pair_time, plane_time, soft_restitution,
 };
 pub use field::{Field, Wall, WallImpulses};
-pub use forces::{AttractionMethod, BallForces, BallProps, BodyProps, Forces, OtherBalls, PointForce, TREE_MIN_BALLS};
+pub use forces::{
+    AttractionMethod, BallForces, BallProps, BodyProps, Forces, NoOtherBalls, OtherBalls, PointForce, TREE_MIN_BALLS,
+};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

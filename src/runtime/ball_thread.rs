@@ -24,9 +24,9 @@ use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::Field;
 use crate::physics::{
-    Attraction, Ball, BallForces, BallKind, BallProps, Effects, Forces, IntegratorScratch, NearBall, OtherBalls,
-    SpanRates, StepPolicy, SubSteps, WallImpulses, attraction_force, attraction_rate_squared, cap_speed,
-    contact_ball_wall, integrate, near_force,
+    Attraction, Ball, BallForces, BallKind, BallProps, BallSteps, Effects, Forces, IntegratorScratch, NearBall,
+    OtherBalls, SpanRates, StepPolicy, WallImpulses, advance_ball, attraction_force, attraction_rate_squared,
+    contact_ball_wall, near_force,
 };
 
 /// Clears the ball's slot if its thread unwinds, so nobody keeps reading a ghost, and counts the
@@ -708,43 +708,23 @@ fn gather_others<'a>(
     }
 }
 
-/// How the next sub-step of what is left of the cycle is split: by the step policy lockstep uses
-/// (see `StepPolicy`; `policy` holds the cycle's floor and the runtime's `max_step`), judged by
-/// the rates at the ball's state now: drag at the speed now or at the terminal speed the other
-/// forces drive the ball to (`BallForces::drag_rate`), and the fastest orbit with another ball.
-/// Travel is not bounded here: contacts are the monitor's, judged at its own period.
-fn judge_split(ball: &Ball, left: f64, policy: &StepPolicy, forces: BallForces<'_, &OthersPull<'_>>) -> SubSteps {
-    let rates = SpanRates {
+/// The rates the step policy splits the ball's next sub-step by (see `StepPolicy`), at the
+/// ball's state `(x, v)`: drag at the speed now or at the terminal speed the other forces drive
+/// the ball to (`BallForces::drag_rate`), and the fastest orbit with another ball. Travel is not
+/// bounded here: contacts are the monitor's, judged at its own period.
+fn rates_at(x: DVec2, v: DVec2, ball: &Ball, forces: &BallForces<'_, &OthersPull<'_>>) -> SpanRates {
+    SpanRates {
         travel: 0.0,
-        drag: forces.drag_rate(ball.position, ball.velocity),
-        orbit: forces.others().orbit_rate(ball.position, ball.mass, ball.radius()),
-    };
-    policy.split(left, &rates)
+        drag: forces.drag_rate(x, v),
+        orbit: forces.others().orbit_rate(x, ball.mass, ball.radius()),
+    }
 }
 
-/// What a cycle's sub-steps came to.
-struct Taken {
-    /// Sub-steps taken.
-    count: u32,
-    /// Whether any of them had the drag guard rail on.
-    drag_limited: bool,
-}
-
-/// Sub-steps over `dt`, each judged afresh by the step policy before it is taken ([`judge_split`]
-/// over the time left, as lockstep re-judges before each of its sub-steps), integrated through
-/// the force passes and followed by the walls (`uniform`: the ball's uniform acceleration) and
-/// lockstep's speed guard rail.
-///
-/// Why each sub-step is judged, not the cycle once: the rates are those of the ball's state
-/// where it is, and a cycle can be long. A thread that the machine starved, or that stalled,
-/// catches up to the horizon in one cycle of hundreds of milliseconds, with the other balls held
-/// where they were published; on the way the ball can fall into a heavy ball's pull, whose
-/// terminal-speed drag is many times stiffer than at the cycle's start. Sub-steps sized by the
-/// start's rates then let the explicit stages overshoot through zero and run away to NaN (a 1.6 g
-/// ball of 2.2 m creeping into a 5e5 kg grain with G = 1: rate·h from 0.5 to over 1 within one
-/// stalled cycle), and the drag guard rail, judged at the start too, was never on. Judged at each
-/// sub-step, the split follows the rate as it grows, down to the cycle's floor, where the guard
-/// rail takes over. A cycle of one sub-step (the common one) is judged once, as before.
+/// Sub-steps over `dt` (`physics::advance_ball`, which the monitor's prediction calls too), each
+/// judged afresh by the step policy before it is taken ([`rates_at`]; `policy` holds the cycle's
+/// floor and the runtime's `max_step`), integrated through the force passes and followed by the
+/// walls (`uniform`: the ball's uniform acceleration) and lockstep's speed guard rail. A cycle of
+/// one sub-step (the common one) is judged once.
 #[allow(clippy::too_many_arguments)]
 fn take_substeps(
     state: &mut BallState,
@@ -755,41 +735,26 @@ fn take_substeps(
     params: &Params,
     shared: &Shared,
     scratch: &mut IntegratorScratch,
-) -> Taken {
-    let velocity_dependent = forces.depends_on_velocity();
+) -> BallSteps {
     let ball = &mut state.ball;
     let (radius, mass) = (ball.radius(), ball.mass);
-    // No force at all (the gas): every integrator reduces to a straight drift, as in lockstep.
-    let drift = forces.is_empty();
-    let mut taken = Taken { count: 0, drag_limited: false };
-    let mut left = dt;
-    while left > 0.0 {
-        // With one sub-step, `h` is exactly what is left, so `left` becomes exactly zero.
-        let sub = judge_split(ball, left, &policy, forces);
-        if drift {
-            ball.position += ball.velocity * sub.h;
-        } else {
-            // Drag too stiff even for the policy's shortest sub-step gets lockstep's guard rail.
-            let forces = forces.with_drag_rate_limit(sub.drag_rate_limit);
-            taken.drag_limited |= sub.drag_limited();
-            let mut x = [ball.position];
-            let mut v = [ball.velocity];
-            integrate(params.integrator, sub.h, &mut x, &mut v, velocity_dependent, scratch, |x, v, a| {
-                a[0] = forces.acceleration(x[0], v[0]);
-            });
-            ball.position = x[0];
-            ball.velocity = v[0];
-        }
-        ball_walls(&mut ball.position, &mut ball.velocity, radius, mass, uniform, params, &mut state.walls);
-        // Lockstep's speed guard rail, for fields faster than the shortest sub-step resolves.
-        if cap_speed(&mut ball.velocity) {
-            // Relaxed: a statistic (see `Shared::speed_limited`).
-            shared.speed_limited.fetch_add(1, Ordering::Relaxed);
-        }
-        left -= sub.h;
-        taken.count += 1;
+    let props = *ball;
+    let walls = &mut state.walls;
+    let steps = advance_ball(
+        params.integrator,
+        &policy,
+        dt,
+        forces,
+        |x, v| rates_at(x, v, &props, &forces),
+        (&mut ball.position, &mut ball.velocity),
+        scratch,
+        |x, v| ball_walls(x, v, radius, mass, uniform, params, walls),
+    );
+    if steps.speed_limited > 0 {
+        // Relaxed: a statistic (see `Shared::speed_limited`).
+        shared.speed_limited.fetch_add(u64::from(steps.speed_limited), Ordering::Relaxed);
     }
-    taken
+    steps
 }
 
 /// Puts a ball that is past a wall back on it, leaving its velocity alone.

@@ -62,9 +62,9 @@ use super::message::{Contact, Grid, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::{
-    Attraction, AttractionMethod, Ball, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag, DragRateBound,
-    Field, Integrator, IntegratorScratch, SolverBall, SpanRates, StepPolicy, TREE_MIN_BALLS, WallImpulses,
-    cap_drag_rate, cap_speed, drag_force, integrate, resting_drift, swept_circle,
+    Attraction, AttractionMethod, Ball, BallProps, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag,
+    DragRateBound, Effects, Field, Forces, Integrator, IntegratorScratch, NoOtherBalls, SolverBall, SpanRates,
+    StepPolicy, TREE_MIN_BALLS, WallImpulses, advance_ball, resting_drift, swept_circle,
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
@@ -166,6 +166,8 @@ struct Monitor<'a> {
     /// The parameters and the generation they were read at (see [`Monitor::refresh_params`]).
     generation: u64,
     params: Params,
+    /// The force passes balls are carried by, from `params` (see [`free_motion`]).
+    free_motion: Forces,
     /// The last pass's instant (runtime clock, ns).
     t_pass: u64,
     /// Where the judged time ends (runtime clock, ns): the next pass judges from here.
@@ -182,6 +184,10 @@ impl<'a> Monitor<'a> {
         // every ball added since begins at (see `Runtime::insert`), and the grid's first instant
         // (see `Grid`). Acquire: see `Shared::horizon`.
         let judged = shared.horizon.load(Ordering::Acquire);
+        // Acquire pairs with the Release increment in `Shared::update_params`: seeing a
+        // generation means the read lock returns what was written before it.
+        let generation = shared.params_generation.load(Ordering::Acquire);
+        let params = shared.params.read().clone();
         Monitor {
             shared,
             inboxes,
@@ -191,10 +197,9 @@ impl<'a> Monitor<'a> {
             records: Vec::new(),
             contacts: ContactPass::new(shared.table.capacity()),
             trees: TreePublisher::default(),
-            // Acquire pairs with the Release increment in `Shared::update_params`: seeing a
-            // generation means the read lock returns what was written before it.
-            generation: shared.params_generation.load(Ordering::Acquire),
-            params: shared.params.read().clone(),
+            generation,
+            free_motion: free_motion(&params.effects),
+            params,
             t_pass,
             judged,
             busy_max_ns: 0,
@@ -247,6 +252,7 @@ impl<'a> Monitor<'a> {
         if g != self.generation {
             self.generation = g;
             self.params = self.shared.params.read().clone();
+            self.free_motion = free_motion(&self.params.effects);
         }
     }
 
@@ -329,6 +335,8 @@ impl<'a> Monitor<'a> {
                 grid,
                 integrator: params.integrator,
                 max_step: self.shared.config.max_step,
+                forces: &self.free_motion,
+                gravity: params.effects.gravity.map_or(DVec2::ZERO, |g| g.g),
                 drag: params.effects.drag.as_ref(),
                 time_scale: params.time_scale,
             },
@@ -434,28 +442,41 @@ struct Judged {
     generation: u64,
 }
 
-/// How a ball moves between contacts, as its own thread integrates it: its integrator, in
-/// sub-steps judged by the step policy (no longer than the runtime's `max_step`; drag resolved, or
-/// its guard rail on), under its uniform acceleration (gravity, the pull) and drag, with the
-/// speed guard rail after each (the other balls' attraction is left out: the threads take it
-/// from the tree).
+/// How a ball moves between contacts, as its own thread integrates it: through
+/// `physics::advance_ball`, the ball thread's own loop, in its integrator's sub-steps judged by
+/// the step policy (no longer than the runtime's `max_step`; drag resolved, or its guard rail
+/// on), under the force passes of the parameters' effects (gravity, drag) and the ball's pull,
+/// with the speed guard rail after each. The other balls' attraction is left out: the threads
+/// take it from the tree.
 struct Motion<'a> {
     /// The grid the balls' stretches are cut at (see [`Grid`]).
     grid: Grid,
     integrator: Integrator,
     max_step: f64,
+    /// The parameters' force passes without attraction (see [`free_motion`]).
+    forces: &'a Forces,
+    /// The parameters' gravity (zero with gravity off): a ball's uniform acceleration less this
+    /// is its pull over its mass.
+    gravity: DVec2,
     drag: Option<&'a Drag>,
     time_scale: f64,
 }
 
+/// The force passes the monitor carries balls by: `effects` but attraction (see [`Motion`]).
+fn free_motion(effects: &Effects) -> Forces {
+    Forces::new(&Effects { attraction: None, ..*effects })
+}
+
 impl Motion<'_> {
     /// Moves `(x, v)` from clock instant `from` to `to` (no further than `to`; nothing if `to` is
-    /// not later).
+    /// not later), grid piece by grid piece as the ball thread cuts its stretches; `a` is the
+    /// ball's uniform acceleration as its record says (gravity and its pull over its mass).
     ///
     /// Each sub-step is judged afresh by the drag rate where the ball is, as the ball thread
     /// judges its own: a light, large ball at speed is stiff, and fixed steps of `max_step` would
     /// overshoot through zero and run away to NaN, which the pass would then send to the ball
-    /// (a 1.6 g ball of 2.2 m at 300 m/s did, within the first passes).
+    /// (a 1.6 g ball of 2.2 m at 300 m/s did, within the first passes). The terminal-speed rate
+    /// under `a` is worked out once for the whole carry (`DragRateBound`).
     #[allow(clippy::too_many_arguments)]
     fn advance(
         &self,
@@ -468,44 +489,18 @@ impl Motion<'_> {
         scratch: &mut IntegratorScratch,
     ) {
         let bound = self.drag.map(|d| DragRateBound::new(a, ball.diameter, ball.mass, d));
+        let rates =
+            |_: DVec2, v: DVec2| SpanRates { drag: bound.as_ref().map_or(0.0, |b| b.at(v)), ..SpanRates::default() };
+        let props = BallProps { mass: ball.mass, inverse_mass: 1.0 / ball.mass, diameter: ball.diameter };
+        // The pull the ball's thread adds after gravity: exactly zero for every ball but the key
+        // ball, whose sum then rounds as the thread's does to within an ulp or so.
+        let pull = (a - self.gravity) * ball.mass;
+        let forces = self.forces.on_ball(props, pull, NoOtherBalls);
         for (from, to) in self.grid.pieces(from, to) {
-            self.advance_piece(x, v, ball, a, bound.as_ref(), clock_seconds(to, from) * self.time_scale, scratch);
+            let dt = clock_seconds(to, from) * self.time_scale;
+            let policy = StepPolicy::new(dt).with_max_step(self.max_step);
+            advance_ball(self.integrator, &policy, dt, forces, rates, (&mut *x, &mut *v), scratch, |_, _| {});
         }
-    }
-
-    /// [`Motion::advance`] over one piece of the grid, `dt` simulated seconds long, as the ball
-    /// thread's `advance` takes it; `bound`: the ball's drag rate bound under `a` (with drag on).
-    #[allow(clippy::too_many_arguments)]
-    fn advance_piece(
-        &self,
-        x: &mut DVec2,
-        v: &mut DVec2,
-        ball: &Ball,
-        a: DVec2,
-        bound: Option<&DragRateBound<'_>>,
-        dt: f64,
-        scratch: &mut IntegratorScratch,
-    ) {
-        if dt.is_nan() || dt <= 0.0 {
-            return;
-        }
-        let policy = StepPolicy::new(dt).with_max_step(self.max_step);
-        let inverse_mass = 1.0 / ball.mass;
-        let (mut xs, mut vs) = ([*x], [*v]);
-        let mut left = dt;
-        while left > 0.0 {
-            let drag = bound.map_or(0.0, |b| b.at(vs[0]));
-            // With one sub-step, `h` is exactly what is left, so `left` becomes exactly zero.
-            let sub = policy.split(left, &SpanRates { drag, ..SpanRates::default() });
-            let limit = sub.drag_rate_limit;
-            integrate(self.integrator, sub.h, &mut xs, &mut vs, self.drag.is_some(), scratch, |_, v, acc| {
-                let drag = self.drag.map_or(DVec2::ZERO, |d| drag_force(v[0], ball.diameter, d) * inverse_mass);
-                acc[0] = a + if limit.is_finite() { cap_drag_rate(drag, v[0], limit) } else { drag };
-            });
-            cap_speed(&mut vs[0]);
-            left -= sub.h;
-        }
-        (*x, *v) = (xs[0], vs[0]);
     }
 }
 
