@@ -62,8 +62,11 @@ pub enum AppError {
     /// winit's error.
     #[error("cannot open a window: {0} (is there a display? `ballfield headless` needs none)")]
     EventLoop(String),
-    /// The engine, the window, its surface or the GPU device could not be set up; the text says
-    /// which and why.
+    /// The engine could not start on the scene.
+    #[error("{0}")]
+    Engine(#[from] EngineError),
+    /// The window, its surface or the GPU device could not be set up; the text says which and
+    /// why.
     #[error("{0}")]
     Start(String),
     /// The `--report` file could not be written. The window ran to its end.
@@ -308,7 +311,7 @@ const PANEL_REFRESH: Duration = Duration::from_millis(250);
 impl App {
     fn new(options: AppOptions) -> Result<App, AppError> {
         let scene = options.scene.clone();
-        let engine = engine::start(options.engine, &scene, None).map_err(|e| AppError::Start(e.to_string()))?;
+        let engine = engine::start(options.engine, &scene, None)?;
         let index = scenes::BUILTIN.iter().position(|(n, _)| *n == scene.name).unwrap_or(0);
         let settings = settings_for(&scene, index, &scene.effects);
         let now = Instant::now();
@@ -795,6 +798,7 @@ impl App {
         self.readouts.engine = Some(self.engine.kind());
         if now - self.last_rate >= Duration::from_millis(500) {
             self.readouts.sim_rate = self.engine.rate();
+            self.readouts.sim_rate_unit = self.engine.rate_unit();
             self.last_rate = now;
         }
         if now - self.last_diagnostics >= Duration::from_millis(100) {

@@ -463,6 +463,7 @@ fn fixed_readouts() -> Readouts {
         frame_rate: 66.0,
         frame_ms: 8.4,
         sim_rate: 1000.0,
+        sim_rate_unit: "steps/s",
         paused: false,
         kinetic: 1234.5678,
         potential: 2345.6789,

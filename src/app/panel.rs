@@ -215,9 +215,11 @@ pub struct Readouts {
     pub frame_rate: f64,
     /// Median time to draw a frame over the last 60, ms.
     pub frame_ms: f64,
-    /// [`crate::engine::Engine::rate`]: steps per second (lockstep) or the median ball's cycles
-    /// per second (threaded), read every 0.5 s.
+    /// [`crate::engine::Engine::rate`]: steps per second (lockstep), events per second (exact)
+    /// or the median ball's cycles per second (threaded), read every 0.5 s.
     pub sim_rate: f64,
+    /// What `sim_rate` counts ([`crate::engine::Engine::rate_unit`]).
+    pub sim_rate_unit: &'static str,
     /// Whether the engine is paused.
     pub paused: bool,
     /// Kinetic energy of the balls on the field, J (refreshed every 0.1 s, as are the figures
@@ -280,12 +282,7 @@ pub fn show(ui: &mut egui::Ui, r: &Readouts, s: &Settings, out: &mut Vec<Command
         };
         row(ui, "balls", r.balls.to_string());
         row(ui, "frame rate", format!("{:.0} /s ({:.1} ms)", r.frame_rate, r.frame_ms));
-        let unit = match r.engine {
-            Some(EngineKind::Lockstep) => "steps/s",
-            Some(EngineKind::Exact) => "events/s",
-            _ => "cycles/s per ball",
-        };
-        row(ui, "simulation", format!("{:.0} {unit}", r.sim_rate));
+        row(ui, "simulation", format!("{:.0} {}", r.sim_rate, r.sim_rate_unit));
         row(ui, "kinetic", format!("{:.4e} J", r.kinetic));
         row(ui, "potential", format!("{:.4e} J", r.potential));
         row(ui, "total", format!("{:.4e} J", r.total));

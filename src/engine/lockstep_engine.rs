@@ -98,6 +98,10 @@ impl Engine for LockstepEngine {
         }
     }
 
+    fn step(&self) -> f64 {
+        self.engine.dt()
+    }
+
     fn tick(&mut self, wall: Duration) {
         if self.paused {
             return;
@@ -227,6 +231,10 @@ impl Engine for LockstepEngine {
 
     fn active_effects(&self) -> Vec<String> {
         self.engine.active_effects().into_iter().map(String::from).collect()
+    }
+
+    fn rate_unit(&self) -> &'static str {
+        "steps/s"
     }
 
     fn rate(&mut self) -> f64 {

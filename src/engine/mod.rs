@@ -27,10 +27,12 @@ use std::time::Duration;
 use glam::DVec2;
 use serde::Serialize;
 
-use crate::lockstep::StepCounters;
 use crate::physics::{Ball, BallId, BallKind, Diagnostics, Effects, Field, Integrator, WallImpulses};
-use crate::runtime::RuntimeStats;
 use crate::scene::Scene;
+
+/// The lockstep engine's and the threaded runtime's own figures, as [`EngineFigures`] carries them.
+pub use crate::lockstep::StepCounters;
+pub use crate::runtime::RuntimeStats;
 
 pub use exact::{ExactCounters, ExactEngine, ExactParams, ExactStats, REST_HEIGHT};
 pub use lockstep_engine::LockstepEngine;
@@ -171,6 +173,9 @@ pub trait Engine: Send {
     /// Advances `n` steps: of `dt` (lockstep), or `n` ball cycles of time (threaded). Nothing
     /// while paused.
     fn advance_steps(&mut self, n: u64);
+    /// The length of one of [`Engine::advance_steps`]'s steps, simulated s: the scene's dt
+    /// (lockstep and exact) or its ball cycle (threaded).
+    fn step(&self) -> f64;
     /// The window's tick, never blocking: `wall` is the wall-clock time since the last tick. The
     /// lockstep engine runs the steps that time (times the time scale) is worth, counting at most
     /// 0.1 s of it (after a stall the game slows down rather than catching up) and carrying the
@@ -243,6 +248,11 @@ pub trait Engine: Send {
     fn set_effects(&mut self, effects: Effects);
     /// The integration method the balls are advanced with (the scene's `simulation.integrator`).
     fn integrator(&self) -> Integrator;
+    /// How the balls move between contacts, for the report: the integrator's name, or what an
+    /// engine that integrates nothing does instead.
+    fn motion(&self) -> &'static str {
+        self.integrator().name()
+    }
     /// Restitution of the walls and of ball–ball collisions (if on), each clamped to [0, 1].
     fn set_restitution(&mut self, walls: f64, balls: f64);
 
@@ -254,9 +264,11 @@ pub trait Engine: Send {
     fn diagnostics(&mut self) -> Diagnostics;
     /// The effects that run, by name; attraction says how it is summed now.
     fn active_effects(&self) -> Vec<String>;
-    /// Updates per second since the last call: steps (lockstep) or the median ball's cycles
-    /// (threaded). Call it rarely (the threaded figure reads the whole table).
+    /// Updates per second since the last call: steps (lockstep), events (exact) or the median
+    /// ball's cycles (threaded). Call it rarely (the threaded figure reads the whole table).
     fn rate(&mut self) -> f64;
+    /// What [`Engine::rate`] counts, as the panel labels it ("steps/s").
+    fn rate_unit(&self) -> &'static str;
     /// The figures only this kind of engine has, for the report.
     fn figures(&mut self) -> EngineFigures;
     /// Stops and joins every thread the engine owns. The engine takes no command afterwards.
@@ -354,7 +366,9 @@ const _: () = {
     send::<Box<dyn Engine>>();
     send::<LockstepEngine>();
     send::<ThreadedEngine>();
+    send::<ExactEngine>();
     sync::<crate::runtime::Runtime>();
+    send::<RuntimeStats>();
     send::<EngineError>();
     sync::<EngineError>();
 };

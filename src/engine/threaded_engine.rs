@@ -134,6 +134,10 @@ impl Engine for ThreadedEngine {
         self.advance_to(t);
     }
 
+    fn step(&self) -> f64 {
+        self.cycle.as_secs_f64()
+    }
+
     fn tick(&mut self, _wall: Duration) {
         if let Some(t) = self.step_until
             && Instant::now() >= t
@@ -284,6 +288,10 @@ impl Engine for ThreadedEngine {
             })
             .map(String::from)
             .collect()
+    }
+
+    fn rate_unit(&self) -> &'static str {
+        "cycles/s per ball"
     }
 
     fn rate(&mut self) -> f64 {

@@ -145,10 +145,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<Outcome, Headless
     let rss_before = MemoryUse::now();
     let mut engine =
         engine::start(options.engine, &scene, options.threads).map_err(|e| HeadlessError::Engine(options.engine, e))?;
-    let step = match options.engine {
-        EngineKind::Lockstep | EngineKind::Exact => scene.dt,
-        EngineKind::Threaded => scene.ball_cycle,
-    };
+    let step = engine.step();
     let end = steps_for(options.length, step) as f64 * step;
     let cpu = ProcessTime::now();
     let mut stepping = Duration::ZERO;
@@ -242,11 +239,7 @@ fn finish(
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),
         engine: options.engine.name().into(),
-        integrator: match options.engine {
-            // Nothing is integrated: every ball flies its exact parabola between events.
-            EngineKind::Exact => "exact parabolas".into(),
-            _ => engine.integrator().name().into(),
-        },
+        integrator: engine.motion().into(),
         dt: figures.dt,
         steps: figures.steps,
         simulated_seconds: engine.time(),

@@ -2,10 +2,8 @@
 
 use serde::Serialize;
 
-use crate::engine::ExactStats;
-use crate::lockstep::StepCounters;
+use crate::engine::{ExactStats, RuntimeStats, StepCounters};
 use crate::physics::Diagnostics;
-use crate::runtime::RuntimeStats;
 
 /// The report of one headless run, written as JSON by `--report` and summarised on the terminal.
 #[derive(Clone, Debug, Serialize)]

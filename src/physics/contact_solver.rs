@@ -866,8 +866,8 @@ impl Tolerances {
 /// compile time below; a row's contact is the low bits of its key in the order) and never
 /// branch on its kind. The arithmetic is [`resting_pass`]'s but for its division by the inverse
 /// masses' sum, a product with `mass` here (the same bits when that sum is a power of two, as for
-/// equal unit masses): the division's latency bounded the pass. Measured on the settled `pile`
-/// (`cargo bench --bench monitor_pass`), a span's solve took about 20 % less than with
+/// equal unit masses): the division's latency bounds the pass. On the settled `pile`
+/// (`cargo bench --bench monitor_pass`) a span's solve takes about a fifth less than with
 /// [`resting_pass`] on the contacts themselves.
 #[derive(Clone, Copy, Debug, Default)]
 struct RestingRow {
@@ -912,14 +912,14 @@ fn resting_rows_pass(rows: &mut [RestingRow], v: &mut [DVec2], backward: bool) -
 /// Why: a pile's weight and its floor's support cross it from contact to contact. A forward pass
 /// in this order carries the support from the floor to the top in one sweep, and a backward pass
 /// the weight down. In the broad phase's order (cells row by row, but every band's seam after
-/// all the bands, and the walls first) each seam held the support back a pass. Measured on the
-/// settled `pile` under the monitor's spans (`cargo bench --bench monitor_pass`): 28.6 passes a
-/// span instead of 36.0, 1,025 of 2,000 solves at the cap instead of 1,348, and 1.2e-6 J of
-/// kinetic energy left instead of 1.9e-6 J.
+/// all the bands, and the walls first) each seam holds the support back a pass. On the settled
+/// `pile` under the monitor's spans (`cargo bench --bench monitor_pass`) a span takes 28.6
+/// passes in this order and 36.0 in that one, 1,025 of 2,000 solves reach the cap against
+/// 1,348, and 1.2e-6 J of kinetic energy is left against 1.9e-6 J.
 ///
 /// Each entry is one integer, the height's bits made monotonic above the index, so the sort
-/// compares integers (on the 1,024-ball pile the sort took 3.2 % of the monitor's time this way,
-/// 3.8 % with `f64::total_cmp` on pairs; perf, one run each).
+/// compares integers (on the 1,024-ball pile the sort takes 3.2 % of the monitor's time this
+/// way, 3.8 % with `f64::total_cmp` on pairs).
 fn order_by_height(list: &[Contact], position: &[DVec2], up: DVec2, order: &mut Vec<u128>) {
     order.clear();
     order.extend(list.iter().enumerate().filter(|(_, c)| c.active).map(|(k, c)| {
@@ -1010,9 +1010,10 @@ impl ContactSolver {
         };
         // A resting impulse stands for a steady force over its span: the last call's, carried
         // over to a span of another length, is that force over this one. (The threaded monitor's
-        // spans vary from pass to pass; warm-started with the last span's impulses as they were,
-        // a pile's resting solve never converged, and jittering 1–2 ms spans kept a settled
-        // pile's kinetic energy near 1e-2 J instead of 1e-7 J.) A mark is carried as it is.
+        // spans vary from pass to pass; warm-started with the last span's impulses as they are,
+        // a pile's resting solve never converges, and over spans jittering from 1 to 2 ms a
+        // settled pile keeps about 1e-2 J of kinetic energy, against 1e-7 J so.) A mark is
+        // carried as it is.
         let ratio = if self.warm_span > 0.0 && span > 0.0 { span / self.warm_span } else { 1.0 };
         let warm = |j: Option<f64>| match j {
             Some(j) if j > RESTED => j * ratio,

@@ -226,7 +226,8 @@ pub fn cap_drag_rate(a: DVec2, v: DVec2, limit: f64) -> DVec2 {
 /// The square of the angular frequency at which a pair of attracting balls would orbit (or, when
 /// they overlap, oscillate through each other), `G·(ma + mb)/max(r, R)³`, 1/s². An explicit step h
 /// resolves that motion only while `ω·h` is small; the engines split their steps to keep it at
-/// most [`MAX_ORBIT_STEP`].
+/// most [`MAX_ORBIT_STEP`]. It is the force passes' own figure: the stiffness
+/// [`attraction_pair`] gives, times `1/ma + 1/mb`.
 #[inline]
 pub fn attraction_rate_squared(
     pa: DVec2,
@@ -237,8 +238,8 @@ pub fn attraction_rate_squared(
     rb: f64,
     attraction: &Attraction,
 ) -> f64 {
-    let r = (pb - pa).length().max(ra + rb);
-    attraction.g_constant * (ma + mb) / (r * r * r)
+    let (_, k) = attraction_pair(pa, ma, ra, pb, mb, rb, attraction);
+    k * (1.0 / ma + 1.0 / mb)
 }
 
 /// Largest `ω·h` a step may have for attracting pairs (see [`attraction_rate_squared`]).
@@ -267,7 +268,7 @@ pub fn attraction_force(pa: DVec2, ma: f64, ra: f64, pb: DVec2, mb: f64, rb: f64
 
 /// [`attraction_force`] (the same bits) and its stiffness `k = G·ma·mb/max(r, R)³`, N/m: the force
 /// is `k·(pb − pa)`. The pair's orbit rate follows at the cost of one multiplication,
-/// `ω² = k·(1/ma + 1/mb)` (= [`attraction_rate_squared`] to rounding), so the force passes
+/// `ω² = k·(1/ma + 1/mb)` ([`attraction_rate_squared`]), so the force passes
 /// measure it while they sum the forces.
 #[inline]
 pub fn attraction_pair(

@@ -80,6 +80,13 @@ pub(crate) struct AttractionSnapshot {
     radius: Vec<f64>,
 }
 
+/// Compile-time check: a snapshot is built on the monitor's thread and read by every ball thread
+/// through an `Arc`, so it is `Send` and `Sync`.
+const _: () = {
+    const fn shared<T: Send + Sync>() {}
+    shared::<AttractionSnapshot>();
+};
+
 impl AttractionSnapshot {
     /// The G and opening angle the tree was built with. A ball whose parameters differ (the user
     /// just changed them) reads the table directly for that cycle instead.

@@ -75,8 +75,8 @@ struct CycleScratch {
     /// The force passes of the parameters' effects, the very ones lockstep runs; built again only
     /// when the parameters change (their generation moved), as building allocates. Boxed: most of
     /// a `Forces` is lockstep's whole-field scratch, which a ball thread never touches, and on the
-    /// stack it made the ball threads' stacks reach further (measured at 1,024 attracting balls:
-    /// 0.6–1.3 KB more memory per ball).
+    /// stack it makes the ball threads' stacks reach further (0.6–1.3 KB more memory per ball at
+    /// 1,024 attracting balls).
     forces: Box<Forces>,
     /// The other balls, read directly from the table (attraction below TREE_MIN_BALLS).
     others: Vec<BallRecord>,
@@ -458,9 +458,9 @@ const CROWDED_TURN: Duration = Duration::from_micros(50);
 /// A sleeping ball turns crowded when it wakes more than half a cycle late (it waited in a run
 /// queue: the cores are saturated); a crowded ball goes back to sleeping when a yield brings its
 /// turn back before it is due, or almost at once (`CROWDED_TURN`): the cores have time to spare,
-/// and spinning would burn it. (Tolerating one early turn before falling back was tried: no
-/// clear gain at 1,024 balls, and at a few hundred balls it kept balls yielding at half as much
-/// CPU again as sleeping takes.)
+/// and spinning would burn it. (Tolerating one early turn before falling back gains nothing clear
+/// at 1,024 balls, and at a few hundred balls it keeps balls yielding at half as much CPU again
+/// as sleeping takes.)
 struct Waiter {
     epoch: Instant,
     cycle: Duration,
@@ -791,7 +791,8 @@ fn ball_walls(
 /// Ball threads (all but the key ball) are scheduled as `SCHED_IDLE`: they get the CPU the rest of the program does not
 /// use. With hundreds of them runnable on two cores, any ordinary policy lets their sheer number
 /// outweigh the monitor, the render loop, Mesa's threads and the X server, and the window falls
-/// far behind its 15 ms cadence (measured: 1.8 frames/s at 500 balls with SCHED_BATCH at nice +5).
+/// far behind its 15 ms cadence (at 500 balls under `SCHED_BATCH` at nice +5 it draws 1.8 frames
+/// a second).
 /// Each ball measures its own dt, so a ball that gets less CPU takes longer sub-stepped steps
 /// rather than going wrong. Lowering a thread's own policy needs no privilege; elsewhere, or if
 /// refused, nothing changes.

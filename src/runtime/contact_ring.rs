@@ -3,10 +3,11 @@
 //! All atomic words, no `unsafe`: a racing read is never undefined behaviour.
 //!
 //! **Why a ring beside the ball's channel.** The monitor sends every ball of a pile one response
-//! a pass. Through the ball's crossbeam channel each send took two locked read-modify-writes
-//! (the channel's tail index and the slot's ready bit) on cache lines the ball's core had last
-//! touched, and the pass waited on each miss: on the settled 1,024-ball pile, 19 % of the
-//! monitor's time was in `Channel::send` (perf, 2026-12-02). A push here is plain stores (on
+//! a pass. Through the ball's crossbeam channel each send takes two locked read-modify-writes
+//! (the channel's tail index and the slot's ready bit) on cache lines the ball's core last
+//! touched, and the pass waits on each miss: on the settled 1,024-ball pile, with the channel
+//! alone, a fifth of the monitor's time is in `Channel::send` (docs/measurements.md). A push
+//! here is plain stores (on
 //! x86 a release store is an ordinary `mov`): the store buffer absorbs the misses and the pass
 //! goes on. Commands (the pull, a mass, a throw, stop) still come by the channel, and so does a
 //! response that finds the ring full (see [`ContactRing::push`]), in order:
@@ -45,7 +46,7 @@ use super::sync::{AtomicU64, Ordering};
 /// Slots per ring: a ball whose thread takes its inbox at least once in this many passes never
 /// needs the channel for a response (16 KB a ball). On the 1,024-ball pile a ball takes its inbox
 /// every few passes, but one starved for more than 128 passes is not rare: with 64 slots the
-/// channel's sends were still 4.9 % of the monitor's time, with 128 3.5 %, with 256 0.05 %.
+/// channel's sends take 4.9 % of the monitor's time, with 128 3.5 %, with 256 0.05 %.
 pub(crate) const RING_SLOTS: usize = 256;
 
 /// One response: `seq` (0, or the response's number + 1) and its six words.

@@ -29,6 +29,16 @@ pub enum Message {
     Panic,
 }
 
+/// Compile-time check: messages cross from the runtime and the monitor to a ball's thread (by
+/// channel and ring), so they are `Send`; the grid is read by every thread, so it is `Sync` too.
+const _: () = {
+    const fn send<T: Send>() {}
+    const fn shared<T: Send + Sync>() {}
+    send::<Message>();
+    send::<Contact>();
+    shared::<Grid>();
+};
+
 /// A contact response, stamped. The monitor solved the ball's contacts on its state extrapolated
 /// to the instant `stamp` (the end of the interval the pass judged): there, the velocity changes
 /// by `dv` and the position by `dx`. Applied at any instant `t` of the ball's own timeline, it is

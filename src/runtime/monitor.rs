@@ -84,6 +84,14 @@ pub(crate) struct Inbox {
     pub incarnation: u64,
 }
 
+/// Compile-time check: the inboxes are written by the runtime and read by the monitor's thread
+/// behind one `Arc<RwLock>`, so an inbox is `Send` and `Sync`.
+const _: () = {
+    const fn shared<T: Send + Sync>() {}
+    shared::<Inbox>();
+    shared::<Inboxes>();
+};
+
 /// How far ahead of its instant a pass judges the contacts, in monitor periods: the next pass
 /// comes one period later and takes a fraction of one, and the balls must not reach the horizon
 /// before it has published the next (they would wait). Four periods leave two and a half for
@@ -178,7 +186,7 @@ struct Monitor<'a> {
 
 impl<'a> Monitor<'a> {
     fn new(shared: &'a Shared, inboxes: Inboxes) -> Self {
-        let period_ns = (shared.config.monitor_period.as_nanos() as u64).max(1);
+        let period_ns = shared.grid(0).period;
         let t_pass = shared.clock(Instant::now());
         // The first pass judges from the horizon the runtime set when it started, the instant
         // every ball added since begins at (see `Runtime::insert`), and the grid's first instant
@@ -325,7 +333,7 @@ impl<'a> Monitor<'a> {
         let piece = self.period_ns as f64 * 1e-9 * params.time_scale;
         let per_piece =
             StepPolicy::new(piece).with_max_step(self.shared.config.max_step).split(piece, &SpanRates::default());
-        let substeps = ((end - self.judged) / self.period_ns.max(1)) as u32 * per_piece.count;
+        let substeps = ((end - self.judged) / self.period_ns) as u32 * per_piece.count;
         let setting = PassSetting {
             generation: self.generation,
             start: self.judged,
@@ -613,8 +621,8 @@ impl ContactPass {
     /// acceleration and the parameters are those the passes since carried it with, its thread
     /// and the passes since did the same arithmetic on the same numbers, and the last pass's end
     /// is where the ball will be: the record is not carried again (on a 1,024-ball pile, where a
-    /// ball publishes every five or six passes, carrying each through its messages in flight was
-    /// a tenth of the pass).
+    /// ball publishes every five or six passes, carrying each through its messages in flight
+    /// costs a tenth of the pass).
     fn span_start(
         &mut self,
         r: &BallRecord,
@@ -710,8 +718,8 @@ impl ContactPass {
             // adds it). The two differ under a velocity-dependent force (drag acts on the path
             // the response changed), and at an impact in mid-span, which cuts the ball's stretch
             // in two (under semi-implicit Euler, micrometres); a ball starved of the CPU for a few
-            // hundred passes, continued from the solve's end states, was found tens of
-            // micrometres from where it was when it next published.
+            // hundred passes, continued from the solve's end states, ends tens of micrometres from
+            // where it is when it next publishes.
             // A response at the span's end (resting contacts alone) follows the free motion over
             // the whole span, which `gather` carried the ball through already, to the bit.
             let (mut x, mut v, t) = if message.apply_at == s.end {

@@ -140,6 +140,16 @@ pub(crate) struct Shared {
     pub attraction_direct_cycles: AtomicU64,
 }
 
+/// Compile-time check: the runtime, the monitor and every ball thread hold `Shared` through one
+/// `Arc` and read it at once (the parameters behind its lock included), so it and `Params` are
+/// `Send` and `Sync`.
+const _: () = {
+    const fn shared<T: Send + Sync>() {}
+    shared::<Shared>();
+    shared::<Params>();
+    shared::<RuntimeConfig>();
+};
+
 impl Shared {
     pub fn new(config: RuntimeConfig, params: Params) -> Self {
         Shared {

@@ -125,6 +125,15 @@ pub struct BallTable {
     slots: Box<[Slot<WORDS>]>,
 }
 
+/// Compile-time check: the table is read by every thread and written by each ball's own (inside
+/// `Shared`), so it is `Send` and `Sync`; a record is copied out to any thread, so it is `Send`.
+const _: () = {
+    const fn shared<T: Send + Sync>() {}
+    const fn send<T: Send>() {}
+    shared::<BallTable>();
+    send::<BallRecord>();
+};
+
 impl BallTable {
     /// A table of `capacity` empty slots.
     pub fn new(capacity: usize) -> Self {

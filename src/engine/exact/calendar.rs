@@ -14,8 +14,8 @@
 //! This is the one-event-per-ball scheme of Rapaport's "The Art of Molecular Dynamics
 //! Simulation" (ch. 14), with counters standing in for its lists of events to delete. The tree
 //! holds, at each node, the owner of the earliest event below it (time, then owner), so that an
-//! update compares along one path of ⌈log₂ n⌉ nodes, reading only the siblings and their times. The order is the one a heap of all events with lazy
-//! invalidation gives its live events (earliest first; simultaneous events by owner): a ball has
+//! update compares along one path of ⌈log₂ n⌉ nodes, reading only the siblings and their times.
+//! The order is the one a heap of all events with lazy invalidation gives its live events (earliest first; simultaneous events by owner): a ball has
 //! one live event at a time, so the owner breaks every tie.
 
 /// What the owner of an event meets.

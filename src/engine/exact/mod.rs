@@ -8,7 +8,7 @@
 //! stepped engines are measured against. Drag and attraction are not piecewise constant; a scene
 //! with either is refused ([`EngineError::Unsupported`]).
 //!
-//! - `calendar.rs` — the binary heap of predicted events, lazily invalidated;
+//! - `calendar.rs` — the predicted events, one slot per ball under a tournament tree;
 //! - `cells.rs` — the cell list the neighbours are found in;
 //! - `world.rs` — the balls, their prediction, and what each event does (with the rest model for
 //!   balls pressed against walls and each other, the collapse model for slow inelastic
@@ -234,6 +234,10 @@ impl Engine for ExactEngine {
     }
 
     /// Steps of the scene's dt, as the lockstep engine's: the clock moves by `n·dt`.
+    fn step(&self) -> f64 {
+        self.scene_dt
+    }
+
     fn advance_steps(&mut self, n: u64) {
         if !self.paused {
             let t = self.world.now() + n as f64 * self.scene_dt;
@@ -359,6 +363,11 @@ impl Engine for ExactEngine {
         self.integrator
     }
 
+    fn motion(&self) -> &'static str {
+        // Nothing is integrated: every ball flies its exact parabola between events.
+        "exact parabolas"
+    }
+
     fn set_restitution(&mut self, walls: f64, balls: f64) {
         let walls = clamp_restitution(walls, self.world.field().restitution);
         let current = self.world.effects().collisions.map_or(1.0, |c| c.restitution);
@@ -377,6 +386,10 @@ impl Engine for ExactEngine {
 
     fn active_effects(&self) -> Vec<String> {
         self.world.effects().active_names().into_iter().map(String::from).collect()
+    }
+
+    fn rate_unit(&self) -> &'static str {
+        "events/s"
     }
 
     fn rate(&mut self) -> f64 {
