@@ -980,34 +980,52 @@ impl ContactSolver {
     /// candidate pairs as indices into `balls`, each unordered pair at most once; pairs with an
     /// index out of range, or a ball with a non-finite state, non-positive radius or inverse mass,
     /// are skipped (such a ball gets a zero response).
+    ///
+    /// In named steps: the contacts listed and warm-started ([`ContactSolver::list_contacts`]),
+    /// the impacts and the contacts they make ([`ContactSolver::impacts`]), the resting contacts
+    /// ([`ContactSolver::resting`]), the overlap left ([`ContactSolver::separate`]), then the
+    /// warm start kept for the next call and one response per ball.
     pub fn solve(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], params: &ContactParams) -> SolveTally {
-        let n = balls.len();
         let span = if params.span.is_finite() && params.span > 0.0 { params.span } else { 0.0 };
         let e = params.restitution.clamp(0.0, 1.0);
         let mut field = params.field;
         field.restitution = field.restitution.clamp(0.0, 1.0);
-        let valid = |b: &SolverBall| {
-            b.position.is_finite()
-                && b.velocity.is_finite()
-                && b.acceleration.is_finite()
-                && b.inverse_mass.is_finite()
-                && b.inverse_mass > 0.0
-                && b.radius.is_finite()
-                && b.radius > 0.0
-        };
         self.position.clear();
         self.velocity.clear();
         self.ids.clear();
         self.position.extend(balls.iter().map(|b| b.position));
         self.velocity.extend(balls.iter().map(|b| b.velocity));
         self.ids.extend(balls.iter().map(|b| b.id));
+        let largest_acceleration = self.list_contacts(balls, pairs, span, e, &field);
+        let tolerance = Tolerances::new(largest_acceleration, span);
+        let mut tally = SolveTally { converged: true, ..Default::default() };
+        let impacts = self.impacts(balls, pairs, span, e, &tolerance);
+        tally.contacts = self.lists[0].len() as u64;
+        tally.impacts = impacts.impacts;
+        tally.impact_rounds = impacts.rounds;
+        tally.converged &= impacts.converged;
+        self.resting(balls, span, params.drift, &tolerance, &mut tally);
+        self.separate(span, params.drift, &tolerance, &mut tally);
+        self.keep_warm_start(balls, span);
+        self.responses.clear();
+        for (i, b) in balls.iter().enumerate() {
+            let instant = self.impact.instant(i).unwrap_or(0.0);
+            self.responses.push(BallResponse {
+                velocity_change: self.velocity[i] - b.velocity,
+                shift: self.position[i] - b.position,
+                instant,
+            });
+        }
+        tally
+    }
+
+    /// Lists every contact of the span in `lists[0]`, walls first (see the lockstep solver: a
+    /// pass then carries a floor's support up a pile), each warm-started from the last call;
+    /// marks which candidate pairs are listed. Returns the largest uniform acceleration.
+    fn list_contacts(&mut self, balls: &[SolverBall], pairs: &[(u32, u32)], span: f64, e: f64, field: &Field) -> f64 {
+        let n = balls.len();
         self.lists.resize_with(1, Vec::new);
         self.lists[0].clear();
-        // Walls first (see the lockstep solver: a pass then carries a floor's support up a pile).
-        let body = |i: usize| {
-            let b = &balls[i];
-            (i as u32, b.id, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius)
-        };
         // A resting impulse stands for a steady force over its span: the last call's, carried
         // over to a span of another length, is that force over this one. (The threaded monitor's
         // spans vary from pass to pass; warm-started with the last span's impulses as they are,
@@ -1022,17 +1040,17 @@ impl ContactSolver {
         };
         let mut largest_acceleration = 0.0f64;
         for (i, b) in balls.iter().enumerate() {
-            if !valid(b) {
+            if !usable(b) {
                 continue;
             }
             largest_acceleration = largest_acceleration.max(b.acceleration.length());
             let near = b.radius + (b.velocity.length() + b.acceleration.length() * span) * span;
-            if !near_a_wall(b.position, b.radius, near, &field) {
+            if !near_a_wall(b.position, b.radius, near, field) {
                 continue;
             }
-            for wall in nearer_walls(b.position, &field) {
+            for wall in nearer_walls(b.position, field) {
                 let ball = (i as u32, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius);
-                if let Some(mut c) = wall_contact(ball, wall, &field, span) {
+                if let Some(mut c) = wall_contact(ball, wall, field, span) {
                     c.impulse = warm(self.warm_walls.get(&(b.id, wall_key(wall))).copied());
                     self.lists[0].push(c);
                 }
@@ -1042,10 +1060,10 @@ impl ContactSolver {
         self.listed.resize(pairs.len(), false);
         for (k, &(i, j)) in pairs.iter().enumerate() {
             let (i, j) = (i as usize, j as usize);
-            if i >= n || j >= n || i == j || !valid(&balls[i]) || !valid(&balls[j]) {
+            if i >= n || j >= n || i == j || !usable(&balls[i]) || !usable(&balls[j]) {
                 continue;
             }
-            if let Some(mut c) = pair_contact(body(i), body(j), span, e) {
+            if let Some(mut c) = pair_contact(solver_body(balls, i), solver_body(balls, j), span, e) {
                 let key =
                     if balls[i].id <= balls[j].id { (balls[i].id, balls[j].id) } else { (balls[j].id, balls[i].id) };
                 c.impulse = warm(self.warm_pairs.get(&key).copied());
@@ -1053,8 +1071,21 @@ impl ContactSolver {
                 self.listed[k] = true;
             }
         }
-        let tolerance = Tolerances::new(largest_acceleration, span);
-        let mut tally = SolveTally { contacts: self.lists[0].len() as u64, converged: true, ..Default::default() };
+        largest_acceleration
+    }
+
+    /// The impact phase over the listed contacts, then up to [`MAX_REDETECTIONS`] times the
+    /// contacts the impacts made (pairs with a struck ball that were not contacts) and their
+    /// impacts in turn.
+    fn impacts(
+        &mut self,
+        balls: &[SolverBall],
+        pairs: &[(u32, u32)],
+        span: f64,
+        e: f64,
+        tolerance: &Tolerances,
+    ) -> ImpactTally {
+        let n = balls.len();
         let mut impacts = impact_phase(
             &mut self.lists,
             &mut self.position,
@@ -1064,11 +1095,10 @@ impl ContactSolver {
             &mut self.impact,
         );
         for _ in 0..MAX_REDETECTIONS {
-            // Contacts the impacts made: pairs with a struck ball that were not contacts.
             let mut added = 0;
             for (k, &(i, j)) in pairs.iter().enumerate() {
                 let (i, j) = (i as usize, j as usize);
-                if self.listed[k] || i >= n || j >= n || i == j || !valid(&balls[i]) || !valid(&balls[j]) {
+                if self.listed[k] || i >= n || j >= n || i == j || !usable(&balls[i]) || !usable(&balls[j]) {
                     continue;
                 }
                 if !(self.impact.struck(i) || self.impact.struck(j)) {
@@ -1100,55 +1130,66 @@ impl ContactSolver {
             impacts.rounds += more.rounds;
             impacts.converged &= more.converged;
         }
-        tally.contacts = self.lists[0].len() as u64;
-        tally.impacts = impacts.impacts;
-        tally.impact_rounds = impacts.rounds;
-        tally.converged &= impacts.converged;
+        impacts
+    }
+
+    /// The resting phase: the contacts still touching at the span's end, warm-started, in
+    /// Gauss–Seidel passes on packed rows (see [`RestingRow`]) of the active contacts, lowest
+    /// first (see [`order_by_height`]), a wall's `b` the zero velocity in slot n, until a pass
+    /// changes no relative velocity by more than the tolerance or the cap is reached; the rows'
+    /// impulses go back to the list after.
+    fn resting(&mut self, balls: &[SolverBall], span: f64, drift: f64, tolerance: &Tolerances, tally: &mut SolveTally) {
+        let n = balls.len();
         let list = &mut self.lists[0];
         tally.resting =
-            resting_begin(list, &self.position, &self.velocity, 0, &self.ids, span, params.drift, tolerance.reach_gap);
+            resting_begin(list, &self.position, &self.velocity, 0, &self.ids, span, drift, tolerance.reach_gap);
         resting_warm_start(list, &mut self.velocity, 0);
-        if tally.resting > 0 {
-            // The passes on packed rows of the active contacts (see `RestingRow`), lowest first
-            // (see `order_by_height`), a wall's `b` the zero velocity in slot n; their impulses go
-            // back to the list after.
-            let up =
-                -balls.iter().filter(|b| valid(b)).fold(DVec2::ZERO, |sum, b| sum + b.acceleration).normalize_or_zero();
-            order_by_height(list, &self.position, up, &mut self.order);
-            self.rows.clear();
-            self.rows.extend(self.order.iter().map(|&key| {
-                let k = key as u32;
-                let c = &list[k as usize];
-                RestingRow {
-                    a: c.a,
-                    b: if c.is_wall() { n as u32 } else { c.b },
-                    normal: c.normal,
-                    inverse_mass_a: c.inverse_mass_a,
-                    inverse_mass_b: c.inverse_mass_b,
-                    mass: 1.0 / (c.inverse_mass_a + c.inverse_mass_b),
-                    target: c.target,
-                    impulse: c.impulse,
-                }
-            }));
-            self.velocity.push(DVec2::ZERO);
-            loop {
-                let change = resting_rows_pass(&mut self.rows, &mut self.velocity, tally.resting_passes % 2 == 1);
-                tally.resting_passes += 1;
-                if change <= tolerance.resting {
-                    break;
-                }
-                if tally.resting_passes == MAX_RESTING_PASSES {
-                    tally.converged = false;
-                    break;
-                }
+        if tally.resting == 0 {
+            return;
+        }
+        let up =
+            -balls.iter().filter(|b| usable(b)).fold(DVec2::ZERO, |sum, b| sum + b.acceleration).normalize_or_zero();
+        order_by_height(list, &self.position, up, &mut self.order);
+        self.rows.clear();
+        self.rows.extend(self.order.iter().map(|&key| {
+            let k = key as u32;
+            let c = &list[k as usize];
+            RestingRow {
+                a: c.a,
+                b: if c.is_wall() { n as u32 } else { c.b },
+                normal: c.normal,
+                inverse_mass_a: c.inverse_mass_a,
+                inverse_mass_b: c.inverse_mass_b,
+                mass: 1.0 / (c.inverse_mass_a + c.inverse_mass_b),
+                target: c.target,
+                impulse: c.impulse,
             }
-            self.velocity.pop();
-            // Row k is the contact in the low bits of the k-th key (see `order_by_height`).
-            for (r, &key) in self.rows.iter().zip(&self.order) {
-                list[key as u32 as usize].impulse = r.impulse;
+        }));
+        self.velocity.push(DVec2::ZERO);
+        loop {
+            let change = resting_rows_pass(&mut self.rows, &mut self.velocity, tally.resting_passes % 2 == 1);
+            tally.resting_passes += 1;
+            if change <= tolerance.resting {
+                break;
+            }
+            if tally.resting_passes == MAX_RESTING_PASSES {
+                tally.converged = false;
+                break;
             }
         }
-        resting_end(list, &mut self.position, 0, span, params.drift, &mut tally.walls);
+        self.velocity.pop();
+        // Row k is the contact in the low bits of the k-th key (see `order_by_height`).
+        for (r, &key) in self.rows.iter().zip(&self.order) {
+            list[key as u32 as usize].impulse = r.impulse;
+        }
+    }
+
+    /// The resting impulses' position effect and the walls' gauges, then the overlap left pushed
+    /// apart (position passes until no overlap exceeds the tolerance beyond the slop, or the
+    /// cap), then the balls held inside the walls.
+    fn separate(&mut self, span: f64, drift: f64, tolerance: &Tolerances, tally: &mut SolveTally) {
+        let list = &mut self.lists[0];
+        resting_end(list, &mut self.position, 0, span, drift, &mut tally.walls);
         loop {
             let overlap = position_pass(list, &mut self.position, 0, &self.ids, tolerance.slop);
             tally.position_passes += 1;
@@ -1161,10 +1202,15 @@ impl ContactSolver {
             }
         }
         wall_pass(list, &mut self.position, 0);
+    }
+
+    /// Keeps every active contact's impulse (at least [`RESTED`], the mark of a contact that
+    /// rested) by the ids of its balls, for the next call's warm start over a span of `span`.
+    fn keep_warm_start(&mut self, balls: &[SolverBall], span: f64) {
         self.warm_pairs.clear();
         self.warm_walls.clear();
         self.warm_span = span;
-        for c in list.iter() {
+        for c in self.lists[0].iter() {
             if c.active {
                 let impulse = c.impulse.max(RESTED);
                 let (ia, ib) = (balls[c.a as usize].id, c.b);
@@ -1176,17 +1222,25 @@ impl ContactSolver {
                 }
             }
         }
-        self.responses.clear();
-        for (i, b) in balls.iter().enumerate() {
-            let instant = self.impact.instant(i).unwrap_or(0.0);
-            self.responses.push(BallResponse {
-                velocity_change: self.velocity[i] - b.velocity,
-                shift: self.position[i] - b.position,
-                instant,
-            });
-        }
-        tally
     }
+}
+
+/// Whether the solver takes `b` into any contact: a finite state, a positive finite inverse mass
+/// and radius.
+fn usable(b: &SolverBall) -> bool {
+    b.position.is_finite()
+        && b.velocity.is_finite()
+        && b.acceleration.is_finite()
+        && b.inverse_mass.is_finite()
+        && b.inverse_mass > 0.0
+        && b.radius.is_finite()
+        && b.radius > 0.0
+}
+
+/// Ball `i` of `balls` as [`pair_contact`] takes it, at its state at the span's end.
+fn solver_body(balls: &[SolverBall], i: usize) -> (u32, BallId, DVec2, DVec2, DVec2, f64, f64) {
+    let b = &balls[i];
+    (i as u32, b.id, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius)
 }
 
 #[cfg(test)]

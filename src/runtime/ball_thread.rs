@@ -173,6 +173,10 @@ enum Handled {
 /// Runs one ball until it is told to stop (or every sender is gone); returns how many contact
 /// messages it was sent and never applied (those in flight when it stopped). `ball` is already in
 /// the table at `slot` (written by the runtime before this thread started).
+///
+/// Each cycle: wait for it, take what arrived ([`take_arrivals`]), pick up new parameters, then
+/// either stand at the horizon while paused ([`paused_cycle`]) or catch up to the clock
+/// ([`running_cycle`]).
 pub(crate) fn run_ball(
     shared: Arc<Shared>,
     slot: usize,
@@ -188,7 +192,6 @@ pub(crate) fn run_ball(
         background_scheduling();
     }
     let cycle = shared.config.ball_cycle;
-    let max_step = shared.config.max_step;
     // The runtime wrote the first record, with the instant it was placed at.
     let time = shared.table.read(slot).map_or_else(|| shared.clock(Instant::now()), |r| r.time);
     let mut state = BallState {
@@ -216,36 +219,17 @@ pub(crate) fn run_ball(
     // Commands taken from the inbox and not yet in effect (see `Commands`).
     let mut commands = Commands::default();
     loop {
-        // Wait for the next cycle, then take what arrived meanwhile. The horizon is read before
-        // the inbox (Acquire; see `Shared::horizon`): every contact message of the pass that
-        // published it is in the inbox by then. A stall (the test hook sleeps while the inbox is
-        // taken) ends with both read again: the cycle starts after it, as it would after a stall
-        // of the thread before the cycle.
         let mut now = waiter.wait(last);
-        let mut received = false;
-        let horizon = loop {
-            let horizon = shared.horizon.load(Ordering::Acquire);
-            match take_inbox(&inbox, &contacts, &mut state, &mut commands) {
-                Inbox::Quiet => break horizon,
-                Inbox::Received => {
-                    received = true;
-                    break horizon;
-                }
-                Inbox::Stalled => {
-                    received = true;
-                    now = Instant::now();
-                }
-                Inbox::Stop => {
-                    commands.apply(&mut state);
-                    state.publish(&shared, &params);
-                    state.flush_counts(&shared);
-                    // Everything the monitor sent is in the inbox by now (it sends nothing once
-                    // the runtime has taken the ball off its list, before the stop): what the
-                    // ball holds and what is left in its ring were sent and will never be applied.
-                    take_ring(&contacts, &mut state);
-                    return state.held.len() as u64;
-                }
-            }
+        let Some((horizon, received)) = take_arrivals(&shared, &inbox, &contacts, &mut state, &mut commands, &mut now)
+        else {
+            commands.apply(&mut state);
+            state.publish(&shared, &params);
+            state.flush_counts(&shared);
+            // Everything the monitor sent is in the inbox by now (it sends nothing once the
+            // runtime has taken the ball off its list, before the stop): what the ball holds and
+            // what is left in its ring were sent and will never be applied.
+            take_ring(&contacts, &mut state);
+            return state.held.len() as u64;
         };
         last = now;
         let g = shared.params_generation.load(Ordering::Acquire);
@@ -258,41 +242,99 @@ pub(crate) fn run_ball(
         // command sent after the pause was asked for is seen with it: the send happens after the
         // store, and the receive above after the send (the channel orders them).
         if shared.paused.load(Ordering::Relaxed) {
-            state.flush_counts(&shared);
-            // The monitor judges nothing while paused, so the horizon stands: every ball catches
-            // up to it, applying each response it holds at its instant, and stops there. The
-            // paused table is then one instant for every ball, with every message applied (the
-            // monitor sees them applied). That is at most a horizon of simulated time after the
-            // pause was asked for.
-            let (from, applied) = (state.time, state.applied);
-            catch_up(horizon, horizon, &mut state, &params, max_step, &shared, &mut scratch);
-            // The commands take effect at the paused instant, so that a velocity set while paused
-            // is the velocity the paused table shows: once the ball stands at the horizon as it
-            // is now (the one read above may be older, if the thread waited since).
-            let commanded = state.time >= shared.horizon.load(Ordering::Acquire) && commands.apply(&mut state);
-            if received || commanded || state.applied != applied || state.time != from {
-                state.publish(&shared, &params);
+            paused_cycle(horizon, received, &mut state, &mut commands, &params, &shared, &mut scratch);
+        } else {
+            running_cycle(now, horizon, received, &mut state, &mut commands, &params, &shared, &mut scratch);
+        }
+    }
+}
+
+/// Takes what arrived since the last cycle; returns the horizon the monitor had published by
+/// then and whether anything arrived, or `None` when the ball is told to stop. The horizon is
+/// read before the inbox (Acquire; see `Shared::horizon`): every contact message of the pass
+/// that published it is in the inbox by then. A stall (the test hook sleeps while the inbox is
+/// taken) ends with both read again and `now` moved to its end: the cycle starts after it, as it
+/// would after a stall of the thread before the cycle.
+fn take_arrivals(
+    shared: &Shared,
+    inbox: &Receiver<Message>,
+    contacts: &ContactRing,
+    state: &mut BallState,
+    commands: &mut Commands,
+    now: &mut Instant,
+) -> Option<(u64, bool)> {
+    let mut received = false;
+    loop {
+        let horizon = shared.horizon.load(Ordering::Acquire);
+        match take_inbox(inbox, contacts, state, commands) {
+            Inbox::Quiet => return Some((horizon, received)),
+            Inbox::Received => return Some((horizon, true)),
+            Inbox::Stalled => {
+                received = true;
+                *now = Instant::now();
             }
-            continue;
+            Inbox::Stop => return None,
         }
-        let commanded = commands.apply(&mut state);
-        let clock = shared.clock(now);
-        if clock > horizon {
-            // Relaxed: a statistic.
-            shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
-        }
-        let (from, applied) = (state.time, state.applied);
-        let source = catch_up(clock.min(horizon), horizon, &mut state, &params, max_step, &shared, &mut scratch);
-        if state.time > from {
-            state.count(source);
-            state.updates += 1;
-        }
-        if state.time > from || state.applied != applied || received || commanded {
-            state.publish(&shared, &params);
-        }
-        if state.updates.is_multiple_of(COUNTER_FLUSH) {
-            state.flush_counts(&shared);
-        }
+    }
+}
+
+/// A cycle while paused. The monitor judges nothing while paused, so the horizon stands: the
+/// ball catches up to it, applying each response it holds at its instant, and stops there. The
+/// paused table is then one instant for every ball, with every message applied (the monitor
+/// sees them applied). That is at most a horizon of simulated time after the pause was asked
+/// for.
+#[allow(clippy::too_many_arguments)]
+fn paused_cycle(
+    horizon: u64,
+    received: bool,
+    state: &mut BallState,
+    commands: &mut Commands,
+    params: &Params,
+    shared: &Shared,
+    scratch: &mut CycleScratch,
+) {
+    state.flush_counts(shared);
+    let (from, applied) = (state.time, state.applied);
+    catch_up(horizon, horizon, state, params, shared.config.max_step, shared, scratch);
+    // The commands take effect at the paused instant, so that a velocity set while paused is the
+    // velocity the paused table shows: once the ball stands at the horizon as it is now (the one
+    // read before may be older, if the thread waited since).
+    let commanded = state.time >= shared.horizon.load(Ordering::Acquire) && commands.apply(state);
+    if received || commanded || state.applied != applied || state.time != from {
+        state.publish(shared, params);
+    }
+}
+
+/// A cycle while running: the commands take effect, then the ball catches up to the clock at
+/// `now`, no further than the horizon, and publishes if anything changed.
+#[allow(clippy::too_many_arguments)]
+fn running_cycle(
+    now: Instant,
+    horizon: u64,
+    received: bool,
+    state: &mut BallState,
+    commands: &mut Commands,
+    params: &Params,
+    shared: &Shared,
+    scratch: &mut CycleScratch,
+) {
+    let commanded = commands.apply(state);
+    let clock = shared.clock(now);
+    if clock > horizon {
+        // Relaxed: a statistic.
+        shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
+    }
+    let (from, applied) = (state.time, state.applied);
+    let source = catch_up(clock.min(horizon), horizon, state, params, shared.config.max_step, shared, scratch);
+    if state.time > from {
+        state.count(source);
+        state.updates += 1;
+    }
+    if state.time > from || state.applied != applied || received || commanded {
+        state.publish(shared, params);
+    }
+    if state.updates.is_multiple_of(COUNTER_FLUSH) {
+        state.flush_counts(shared);
     }
 }
 
