@@ -35,6 +35,7 @@ pub struct BallSteps {
 /// ball thread's walls), then applies the speed guard rail. Nothing happens for a `dt` that is
 /// not positive (NaN included).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn advance_ball<O: OtherBalls + Copy>(
     integrator: Integrator,
     policy: &StepPolicy,
