@@ -504,6 +504,9 @@ impl ImpactScratch {
 /// An impulse acts at the latest of its contact's instant and the instants of the impacts that
 /// already struck either ball (a contact struck because another impact set it approaching is
 /// struck right after that one), and each ball moves on by `Δv` times that time: the replay.
+///
+/// In named steps per round: the round's rows ([`ImpactScratch::gather_round`]), the sweeps
+/// ([`ImpactScratch::sweep_round`]), and the impulses' replay ([`ImpactScratch::replay_round`]).
 pub fn impact_phase(
     lists: &mut [Vec<Contact>],
     x: &mut [DVec2],
@@ -528,8 +531,28 @@ pub fn impact_phase(
         return tally;
     }
     loop {
-        s.rows.clear();
-        for &(l, k) in &s.candidates {
+        s.gather_round(lists, v, impact_threshold, tally.rounds == 0);
+        if s.rows.is_empty() {
+            break;
+        }
+        if tally.rounds == MAX_IMPACT_ROUNDS {
+            tally.converged = false;
+            break;
+        }
+        tally.rounds += 1;
+        tally.converged &= s.sweep_round(lists, v, impact_threshold);
+        tally.impacts += s.replay_round(lists, x);
+    }
+    tally
+}
+
+impl ImpactScratch {
+    /// The rows of the next round: the candidate contacts approaching faster than
+    /// `impact_threshold`, each with its target and the instant its impulse acts at. `first`:
+    /// this is the phase's first round.
+    fn gather_round(&mut self, lists: &[Vec<Contact>], v: &[DVec2], impact_threshold: f64, first: bool) {
+        self.rows.clear();
+        for &(l, k) in &self.candidates {
             let c = &lists[l as usize][k as usize];
             let vn = normal_velocity(c, v, 0) + c.bias;
             // A contact that rested in the last span (its warm impulse is positive, at least
@@ -538,7 +561,7 @@ pub fn impact_phase(
             // close, which the resting phase absorbs. It is struck when this span's impacts set
             // it approaching (a later round).
             // (Elastic contacts keep every approach: e = 1 keeps the energy exactly.)
-            let carried = tally.rounds == 0 && c.persistent && c.impulse > 0.0 && c.restitution < 1.0;
+            let carried = first && c.persistent && c.impulse > 0.0 && c.restitution < 1.0;
             if vn < -impact_threshold && !carried {
                 // A contact that touched since the span began is part of a resting cluster: its
                 // impulse acts at the end of the span. Replaying it from the striking impact's
@@ -552,13 +575,13 @@ pub fn impact_phase(
                 } else if c.late {
                     c.tau
                 } else {
-                    let mut time = c.tau.min(s.latest[c.a as usize]);
+                    let mut time = c.tau.min(self.latest[c.a as usize]);
                     if !c.is_wall() {
-                        time = time.min(s.latest[c.b as usize]);
+                        time = time.min(self.latest[c.b as usize]);
                     }
                     time
                 };
-                s.rows.push(Row {
+                self.rows.push(Row {
                     list: l,
                     index: k,
                     target: -c.restitution * settling(-vn, impact_threshold) * vn,
@@ -569,26 +592,24 @@ pub fn impact_phase(
                 });
             }
         }
-        if s.rows.is_empty() {
-            break;
-        }
-        if tally.rounds == MAX_IMPACT_ROUNDS {
-            tally.converged = false;
-            break;
-        }
-        tally.rounds += 1;
+    }
+
+    /// Solves the round's rows together in Jacobi sweeps with each ball's mass split among its
+    /// contacts of the round, applying each sweep's impulses to `v`. Returns false when the sweeps
+    /// reached their cap.
+    fn sweep_round(&mut self, lists: &[Vec<Contact>], v: &mut [DVec2], impact_threshold: f64) -> bool {
         let mut shared = false;
-        for r in &s.rows {
+        for r in &self.rows {
             let c = &lists[r.list as usize][r.index as usize];
             for i in [c.a, c.b] {
                 if i != WALL {
-                    s.count[i as usize] += 1;
-                    shared |= s.count[i as usize] > 1;
+                    self.count[i as usize] += 1;
+                    shared |= self.count[i as usize] > 1;
                 }
             }
         }
         let mut scale = 0.0f64;
-        for r in &s.rows {
+        for r in &self.rows {
             scale = scale.max(r.approach);
         }
         // Converged when no sweep changes a relative velocity by more than this.
@@ -596,49 +617,55 @@ pub fn impact_phase(
         let mut iterations = 0;
         loop {
             let mut largest = 0.0f64;
-            for r in s.rows.iter_mut() {
+            for r in self.rows.iter_mut() {
                 let c = &lists[r.list as usize][r.index as usize];
                 let vn = normal_velocity(c, v, 0) + c.bias;
-                let ka = s.count[c.a as usize] as f64;
-                let kb = if c.is_wall() { 0.0 } else { s.count[c.b as usize] as f64 };
+                let ka = self.count[c.a as usize] as f64;
+                let kb = if c.is_wall() { 0.0 } else { self.count[c.b as usize] as f64 };
                 let split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
                 let lambda = (r.lambda + (r.target - vn) / split).max(0.0);
                 r.delta = lambda - r.lambda;
                 r.lambda = lambda;
                 largest = largest.max(r.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
             }
-            for r in &s.rows {
+            for r in &self.rows {
                 let c = &lists[r.list as usize][r.index as usize];
                 apply(c, r.delta, v, 0);
             }
             iterations += 1;
             // Without shared balls one sweep is the exact answer.
             if !shared || largest <= tolerance {
-                break;
+                return true;
             }
             if iterations == MAX_ROUND_ITERATIONS {
-                tally.converged = false;
-                break;
+                return false;
             }
         }
-        for r in &s.rows {
+    }
+
+    /// Records the round's impulses on their contacts and replays them: each ball moves on by
+    /// its `Δv` times the time its impulse acts before the span's end, and its latest impact
+    /// instant is kept. Returns how many contacts were struck for the first time.
+    fn replay_round(&mut self, lists: &mut [Vec<Contact>], x: &mut [DVec2]) -> u64 {
+        let mut impacts = 0;
+        for r in &self.rows {
             let c = &mut lists[r.list as usize][r.index as usize];
-            s.count[c.a as usize] = 0;
+            self.count[c.a as usize] = 0;
             if !c.is_wall() {
-                s.count[c.b as usize] = 0;
+                self.count[c.b as usize] = 0;
             }
             if r.lambda > 0.0 {
                 if c.impact == 0.0 {
-                    tally.impacts += 1;
+                    impacts += 1;
                 }
                 c.impact += r.lambda;
                 x[c.a as usize] -= (r.lambda * c.inverse_mass_a * r.time) * c.normal;
                 for i in [c.a, c.b] {
                     if i != WALL {
-                        if s.latest[i as usize] == f64::INFINITY {
-                            s.touched.push(i);
+                        if self.latest[i as usize] == f64::INFINITY {
+                            self.touched.push(i);
                         }
-                        s.latest[i as usize] = s.latest[i as usize].min(r.time);
+                        self.latest[i as usize] = self.latest[i as usize].min(r.time);
                     }
                 }
                 if !c.is_wall() {
@@ -646,8 +673,8 @@ pub fn impact_phase(
                 }
             }
         }
+        impacts
     }
-    tally
 }
 
 /// Starts the resting phase on one list. A contact is active when its gap now (after the impacts)
