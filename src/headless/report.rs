@@ -107,7 +107,19 @@ pub struct ThreadedFigures {
 impl RunReport {
     /// A one-screen summary for people.
     pub fn summary(&self) -> String {
+        use std::fmt::Write;
         let mut s = String::new();
+        self.write_run(&mut s);
+        self.write_state(&mut s);
+        self.write_engine(&mut s);
+        if let Some(h) = &self.state_hash {
+            let _ = writeln!(s, "state hash   {h}");
+        }
+        s
+    }
+
+    /// The summary's lines on what ran: scene, engine, effects, balls, time, threads, memory.
+    fn write_run(&self, s: &mut String) {
         use std::fmt::Write;
         let _ = writeln!(s, "scene        {} ({})", self.scene, self.scene_file);
         let _ = writeln!(s, "engine       {}, integrator {}, dt {} s", self.engine, self.integrator, self.dt);
@@ -136,6 +148,11 @@ impl RunReport {
                 m.rss_before_bytes as f64 / 1048576.0
             );
         }
+    }
+
+    /// The summary's lines on the state: energies, momentum, walls, overlap.
+    fn write_state(&self, s: &mut String) {
+        use std::fmt::Write;
         let _ = writeln!(s, "                   {:>16} {:>16} {:>16}", "kinetic J", "potential J", "total J");
         for (label, d) in [("start", &self.start), ("end", &self.end)] {
             let _ = writeln!(s, "energy {label:<11} {:>16.6e} {:>16.6e} {:>16.6e}", d.kinetic, d.potential, d.total);
@@ -159,6 +176,12 @@ impl RunReport {
             self.end.outside,
             self.end.non_finite
         );
+    }
+
+    /// The summary's lines of the engine's own figures: lockstep's phases, the threaded
+    /// runtime's rates and messages, the exact engine's events and calendar.
+    fn write_engine(&self, s: &mut String) {
+        use std::fmt::Write;
         if let Some(p) = &self.phases {
             let total = p.total().as_secs_f64().max(1e-12);
             let pct = |d: std::time::Duration| 100.0 * d.as_secs_f64() / total;
@@ -233,9 +256,5 @@ impl RunReport {
                 );
             }
         }
-        if let Some(h) = &self.state_hash {
-            let _ = writeln!(s, "state hash   {h}");
-        }
-        s
     }
 }

@@ -177,35 +177,51 @@ const BALL_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 =
 const SEGMENT_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
     wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x2, 2 => Uint32];
 
-impl Renderer {
-    /// Pipelines for targets of `format` (the surface's, or the offscreen texture's).
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat) -> Renderer {
-        let globals = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("globals"),
-            contents: bytemuck::bytes_of(&Globals::zeroed()),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("globals"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("globals"),
-            layout: &bind_group_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
-        });
+/// The globals' uniform buffer, its bind group's layout and the bind group (the vertex stages
+/// read the view's transform from it).
+fn globals_binding(device: &wgpu::Device) -> (wgpu::Buffer, wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let globals = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("globals"),
+        contents: bytemuck::bytes_of(&Globals::zeroed()),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    });
+    let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("globals"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }],
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("globals"),
+        layout: &bind_group_layout,
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
+    });
+    (globals, bind_group_layout, bind_group)
+}
+
+/// The renderer's pipelines (see [`Renderer`]'s fields).
+struct Pipelines {
+    balls_strip: wgpu::RenderPipeline,
+    balls_list: wgpu::RenderPipeline,
+    balls_triangles: wgpu::RenderPipeline,
+    segments: wgpu::RenderPipeline,
+    background: wgpu::RenderPipeline,
+}
+
+impl Pipelines {
+    /// The five pipelines for targets of `format`, over the globals' bind group layout: balls as
+    /// instanced strips, as expanded lists and as triangles; segments; the opaque background.
+    fn new(device: &wgpu::Device, bind_group_layout: &wgpu::BindGroupLayout, format: wgpu::TextureFormat) -> Pipelines {
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("ballfield"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
+            bind_group_layouts: &[Some(bind_group_layout)],
             immediate_size: 0,
         });
         let balls_shader = device.create_shader_module(wgpu::include_wgsl!("../../shaders/balls.wgsl"));
@@ -287,6 +303,18 @@ impl Renderer {
         // Opaque: no blending, no read of the target.
         let background =
             pipeline("background", &segments_shader, segment_layout(), wgpu::PrimitiveTopology::TriangleStrip, None);
+        Pipelines { balls_strip, balls_list, balls_triangles, segments, background }
+    }
+}
+
+impl Renderer {
+    /// Pipelines for targets of `format` (the surface's, or the offscreen texture's): the
+    /// globals' binding ([`globals_binding`]), the five pipelines ([`Pipelines::new`]), and
+    /// the buffers, grown as frames need.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat) -> Renderer {
+        let (globals, bind_group_layout, bind_group) = globals_binding(device);
+        let Pipelines { balls_strip, balls_list, balls_triangles, segments, background } =
+            Pipelines::new(device, &bind_group_layout, format);
         let vertex = wgpu::BufferUsages::VERTEX;
         Renderer {
             device: device.clone(),
