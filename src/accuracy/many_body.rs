@@ -608,7 +608,8 @@ fn dt_text(dt: Option<f64>) -> String {
 }
 
 impl ManyBodyReport {
-    /// The section as Markdown (`docs/accuracy/many-body.md`).
+    /// The section as Markdown (`docs/accuracy/many-body.md`): its introduction, then the
+    /// cradle, the gas and the pressure, each a part of its own.
     pub fn markdown(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "# Many-body accuracy — the exact engine as the reference\n");
@@ -619,6 +620,15 @@ impl ManyBodyReport {
              core on a shared 2-core machine: they are upper bounds.\n",
             self.total_seconds
         );
+        self.markdown_cradle(&mut s);
+        self.markdown_gas(&mut s);
+        self.markdown_pressure(&mut s);
+        let _ = writeln!(s, "\nThe plot: [many-body.svg](many-body.svg).");
+        s
+    }
+
+    /// The cradle's part of [`ManyBodyReport::markdown`].
+    fn markdown_cradle(&self, s: &mut String) {
         let _ = writeln!(s, "## Newton's cradle\n");
         let _ = writeln!(
             s,
@@ -647,6 +657,10 @@ impl ManyBodyReport {
                 r.wall_seconds
             );
         }
+    }
+
+    /// The gas's part of [`ManyBodyReport::markdown`].
+    fn markdown_gas(&self, s: &mut String) {
         let _ = writeln!(s, "\n## An elastic gas under gravity\n");
         let _ = writeln!(
             s,
@@ -706,6 +720,10 @@ impl ManyBodyReport {
                 r.wall_seconds
             );
         }
+    }
+
+    /// The pressure's part of [`ManyBodyReport::markdown`].
+    fn markdown_pressure(&self, s: &mut String) {
         let _ = writeln!(s, "\n## Hard-disk pressure from the walls' gauge\n");
         let _ = writeln!(
             s,
@@ -776,8 +794,6 @@ impl ManyBodyReport {
                 );
             }
         }
-        let _ = writeln!(s, "\nThe plot: [many-body.svg](many-body.svg).");
-        s
     }
 
     /// The plot: the gas's position error and the pressure's Z error against wall time (log-log).

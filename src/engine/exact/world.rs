@@ -1386,10 +1386,31 @@ impl World {
         // or it is due again at once, for ever.
         let floor = 4.0 * f64::EPSILON * (self.hot[i].v.length() + self.hot[j].v.length());
         // The outgoing speed, along `d` (elastic: exactly `−vd`) and in m/s for the rest model.
-        let mut out_d = if vd < 0.0 { (-e_eff * vd).max(floor * len) } else { 0.0 };
-        let mut outgoing = out_d / len;
-        // Pressed together (their accelerations in their motions after this collision close the
-        // gap) and slow: the rest model.
+        let out_d = if vd < 0.0 { (-e_eff * vd).max(floor * len) } else { 0.0 };
+        let outgoing = out_d / len;
+        let (outgoing, out_d, rest) =
+            self.rest_model([i, j], (n, d, len), vd, press_before, [mob_i, mob_j], (outgoing, out_d));
+        self.strike_and_separate([i, j], d, sigma, (len, vd, outgoing, out_d, floor), [mob_i, mob_j], rest);
+        self.predict(i);
+        self.predict(j);
+        self.predict_others([i, j]);
+    }
+
+    /// The rest model of [`World::collide_pair`]: a pair pressed together (their accelerations
+    /// in the motions this collision leaves them in close the gap) that would part slower than a
+    /// hop of the rest height either comes to rest plastically (if every ball that moves can
+    /// stay where it is) or hops at that speed. `out` is the outgoing speed (m/s) and the same
+    /// along `d` before the model; returns them after it, and which of the two come to rest.
+    #[allow(clippy::too_many_arguments)]
+    fn rest_model(
+        &mut self,
+        [i, j]: [usize; 2],
+        (n, d, len): (DVec2, DVec2, f64),
+        vd: f64,
+        press_before: f64,
+        [mob_i, mob_j]: [Mobility; 2],
+        (mut outgoing, mut out_d): (f64, f64),
+    ) -> (f64, f64, [bool; 2]) {
         let accel = |w: &World, k: usize, m: Mobility| match m {
             Mobility::Fixed => DVec2::ZERO,
             Mobility::Sliding { wall, .. } => {
@@ -1427,6 +1448,23 @@ impl World {
             }
             out_d = outgoing * len;
         }
+        (outgoing, out_d, rest)
+    }
+
+    /// The impulse of [`World::collide_pair`], topped up until the pair separates, then each
+    /// moving ball at rest or settled on its new course: `(vd, outgoing, out_d, floor)` are the
+    /// closing speed along `d`, the outgoing speed (m/s) and along `d`, and the rounding floor
+    /// of their speeds (m/s).
+    fn strike_and_separate(
+        &mut self,
+        [i, j]: [usize; 2],
+        d: DVec2,
+        sigma: f64,
+        (len, vd, outgoing, out_d, floor): (f64, f64, f64, f64, f64),
+        [mob_i, mob_j]: [Mobility; 2],
+        rest: [bool; 2],
+    ) {
+        let v_rel = |h: &[Hot]| (h[j].v - h[i].v).dot(d);
         if let Some(c) = collide(d, vd, out_d, mob_i, mob_j) {
             self.apply_collision(i, j, d, c, mob_i, mob_j);
         }
@@ -1454,9 +1492,6 @@ impl World {
             }
             self.restart_course(k);
         }
-        self.predict(i);
-        self.predict(j);
-        self.predict_others([i, j]);
     }
 
     /// Applies collision `c` of balls i and j along `d` (the direction [`collide`] was given),
