@@ -5,9 +5,9 @@
 //! - [`app`] — the window: input, panel, the 15 ms sampling loop;
 //! - [`headless`] — runs without a window: the report, state files and frames;
 //! - [`render`] — draws a snapshot with wgpu, in a window or offscreen;
-//! - [`engine`] — the one interface every engine is driven through, with its two
-//!   implementations: [`runtime`] (one thread per ball, the game's default) and [`lockstep`]
-//!   (the deterministic reference);
+//! - [`engine`] — the one interface every engine is driven through, and its three engines:
+//!   [`runtime`] (one thread per ball, the game's default), [`lockstep`] (the deterministic
+//!   reference) and the exact, event-driven one; the first two are re-exported here by name;
 //! - [`physics`] — pure f64 functions on plain data, which every engine calls;
 //! - [`scene`] / [`scenes`] — what is on the field (TOML);
 //! - [`accuracy`] — the accuracy report (`ballfield accuracy`), run on the engines.
@@ -18,13 +18,11 @@ pub mod accuracy;
 pub mod app;
 pub mod engine;
 pub mod headless;
-pub mod lockstep;
 pub mod physics;
 pub mod render;
-pub mod runtime;
 pub mod scene;
 pub mod scenes;
 
-pub use engine::{Engine, EngineError, EngineKind};
+pub use engine::{Engine, EngineError, EngineKind, lockstep, runtime};
 pub use lockstep::{Lockstep, StepCounters};
 pub use scene::{Scene, SceneError};

@@ -1,4 +1,4 @@
-//! A loom model check of the contact ring's push/pop protocol (`src/runtime/contact_ring.rs`),
+//! A loom model check of the contact ring's push/pop protocol (`src/engine/runtime/contact_ring.rs`),
 //! the way `tests/table_loom.rs` checks the table: the real file, compiled beside a `sync` module
 //! that hands it loom's atomics. Loom runs the monitor (the producer) and a ball's thread (the
 //! consumer) under every interleaving up to a preemption bound and, for each relaxed load, every
@@ -27,7 +27,7 @@ mod message {
 }
 
 #[allow(dead_code)]
-#[path = "../src/runtime/contact_ring.rs"]
+#[path = "../src/engine/runtime/contact_ring.rs"]
 mod contact_ring;
 
 use contact_ring::{ContactRing, RingWriter};

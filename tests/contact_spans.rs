@@ -7,7 +7,7 @@
 //! Why it matters: the resting solve starts from the last span's impulses taken as forces, and a
 //! pile's contacts share its weight in many ways. Over spans that follow the monitor's wake-ups
 //! (anywhere from 0.5 to 1.5 ms) its passes stop converging and a settled pile keeps moving; that
-//! is why the monitor judges whole periods (`src/runtime/monitor.rs`).
+//! is why the monitor judges whole periods (`src/engine/runtime/monitor.rs`).
 
 mod common;
 

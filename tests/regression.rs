@@ -22,7 +22,7 @@
 //! `state_hash`.
 //!
 //! Seen to fail with the sub-step split's `MAX_TRAVEL` at 0.51 radii instead of 0.5
-//! (`src/lockstep.rs`): "hard/scales: 998ba4ec894ec8d9, the table says 2783572d6e106457".
+//! (`src/engine/lockstep.rs`): "hard/scales: 998ba4ec894ec8d9, the table says 2783572d6e106457".
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

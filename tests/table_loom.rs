@@ -1,4 +1,4 @@
-//! A loom model check of the ball table's publish/read protocol (`src/runtime/table.rs`).
+//! A loom model check of the ball table's publish/read protocol (`src/engine/runtime/table.rs`).
 //!
 //! This compiles the real `table.rs` — the very file the runtime uses, not a copy — beside a
 //! `sync` module that hands it loom's atomics, fences and spin hint instead of std's, and a
@@ -34,7 +34,7 @@ mod physics {
 }
 
 #[allow(dead_code)]
-#[path = "../src/runtime/table.rs"]
+#[path = "../src/engine/runtime/table.rs"]
 mod table;
 
 use glam::DVec2;

@@ -20,8 +20,8 @@ use glam::DVec2;
 use plotters::prelude::*;
 
 use super::{AccuracyError, write_file};
+use crate::engine::lockstep::Lockstep;
 use crate::engine::{self, Engine, EngineKind, ExactEngine, Placement};
-use crate::lockstep::Lockstep;
 use crate::physics::{Ball, BallId, BallKind, Collisions, Effects, Field, Gravity, Integrator};
 use crate::scenes;
 

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 pub use fit::{CEILING, FLOOR, OrderFit, ROUNDING_MARGIN, fit_order};
 pub use problems::{Exact, Kind, Measure, Measured, PROBLEMS, Problem, SweepPoint, TWIN_SHIFT};
 
-use crate::lockstep::Lockstep;
+use crate::engine::lockstep::Lockstep;
 use crate::physics::{Ball, Integrator};
 use crate::scene::SceneError;
 

@@ -5,7 +5,7 @@ use glam::DVec2;
 
 use super::AccuracyError;
 use super::analytic::{Collision, DragFall, TwoBody, projectile};
-use crate::lockstep::Lockstep;
+use crate::engine::lockstep::Lockstep;
 use crate::physics::{Attraction, Bodies, Drag, Effects, attraction_potential_energy, kinetic_energy};
 use crate::scene::Scene;
 use crate::scenes;

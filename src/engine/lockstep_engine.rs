@@ -8,7 +8,7 @@ use super::{
     Engine, EngineError, EngineFigures, EngineKind, Placement, Shutdown, admit, check_mass, check_velocity,
     clamp_restitution,
 };
-use crate::lockstep::Lockstep;
+use crate::engine::lockstep::Lockstep;
 use crate::physics::{Ball, BallId, Diagnostics, Effects, Field, Integrator, WallImpulses};
 use crate::scene::Scene;
 

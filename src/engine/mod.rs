@@ -19,7 +19,9 @@
 //! the window's non-blocking one.
 
 mod exact;
+pub mod lockstep;
 mod lockstep_engine;
+pub mod runtime;
 mod threaded_engine;
 
 use std::time::Duration;
@@ -31,8 +33,8 @@ use crate::physics::{Ball, BallId, BallKind, Diagnostics, Effects, Field, Integr
 use crate::scene::Scene;
 
 /// The lockstep engine's and the threaded runtime's own figures, as [`EngineFigures`] carries them.
-pub use crate::lockstep::StepCounters;
-pub use crate::runtime::RuntimeStats;
+pub use lockstep::StepCounters;
+pub use runtime::RuntimeStats;
 
 pub use exact::{ExactCounters, ExactEngine, ExactParams, ExactStats, REST_HEIGHT};
 pub use lockstep_engine::LockstepEngine;
@@ -367,7 +369,7 @@ const _: () = {
     send::<LockstepEngine>();
     send::<ThreadedEngine>();
     send::<ExactEngine>();
-    sync::<crate::runtime::Runtime>();
+    sync::<crate::engine::runtime::Runtime>();
     send::<RuntimeStats>();
     send::<EngineError>();
     sync::<EngineError>();

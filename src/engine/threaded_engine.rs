@@ -9,8 +9,8 @@ use super::{
     Engine, EngineError, EngineFigures, EngineKind, Placement, Shutdown, admit, check_mass, check_velocity,
     clamp_restitution,
 };
+use crate::engine::runtime::{BallRecord, Runtime, RuntimeConfig};
 use crate::physics::{AttractionMethod, Ball, BallId, Diagnostics, Effects, Field, Integrator, WallImpulses, measure};
-use crate::runtime::{BallRecord, Runtime, RuntimeConfig};
 use crate::scene::Scene;
 
 /// The runtime configuration a scene asks for. `BALLFIELD_BALL_WAIT=sleep` makes the ball threads

@@ -9,7 +9,7 @@
 //! one [`BallResponse`] per ball — a velocity change and a position change to add to its
 //! end-of-span state. Walls are found by the solver itself. The solver keeps only scratch memory
 //! and the last call's impulses, keyed by ball ids, to warm-start the next call. The lockstep
-//! engine drives the same phases band by band (`src/lockstep/contact_solver.rs`) through the
+//! engine drives the same phases band by band (`src/engine/lockstep/contact_solver.rs`) through the
 //! per-contact functions below ([`pair_contact`], [`wall_contact`], [`impact_phase`],
 //! [`resting_begin`], [`resting_pass`], [`resting_end`], [`position_pass`]), so both engines run
 //! one physics.

@@ -190,7 +190,7 @@ impl ExactEngine {
     pub fn state_hash(&self) -> u64 {
         let mut balls = Vec::new();
         self.world.sample(&mut balls);
-        crate::lockstep::state_hash(&Bodies::from_balls(&balls))
+        crate::engine::lockstep::state_hash(&Bodies::from_balls(&balls))
     }
 
     fn events(&self) -> u64 {

@@ -65,7 +65,7 @@ pub struct BallRecord {
     pub updates: u64,
     /// Impulse each wall took from this ball so far.
     pub wall_impulses: WallImpulses,
-    /// The instant this state is of, on the runtime's clock (ns; see [`crate::runtime`]): the
+    /// The instant this state is of, on the runtime's clock (ns; see [`crate::engine::runtime`]): the
     /// monitor extrapolates every ball from its own instant to a common one.
     pub time: u64,
     /// The ball's uniform acceleration (m/s²: gravity, plus the pull over the mass for the key
