@@ -9,7 +9,7 @@
 //! replays the cases listed there before drawing new ones.
 //!
 //! The longer run by hand, with other seeds and more cases (about 4 minutes per 1,000 random
-//! fields on two cores; the seeds run so far, and what they found, are in the README):
+//! fields on two cores; the seeds run so far, and what they found, are in docs/measurements.md, *Fuzz findings*):
 //!
 //! ```sh
 //! PROPTEST_RNG_SEED=16 BALLFIELD_FUZZ_CASES=1000 cargo test --release --test fuzz

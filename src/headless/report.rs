@@ -207,8 +207,12 @@ impl RunReport {
             );
             let _ = writeln!(
                 s,
-                "messages     {} impulses sent, {} applied, {} dropped; {} threads panicked",
-                st.impulses_sent, st.impulses_applied, st.messages_dropped, st.threads_panicked
+                "messages     {} impulses sent ({} by channel, the ring full), {} applied, {} dropped; {} threads panicked",
+                st.impulses_sent,
+                st.responses_by_channel,
+                st.impulses_applied,
+                st.messages_dropped,
+                st.threads_panicked
             );
             if st.speed_limited + st.drag_limited > 0 {
                 let _ = writeln!(

@@ -126,6 +126,10 @@ pub struct RuntimeStats {
     pub responses_late: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
+    /// Contact responses sent by the ball's channel because its ring was full (a ball starved of
+    /// the CPU for more passes than the ring holds), or after such a response, in order (see
+    /// `contact_ring`).
+    pub responses_by_channel: u64,
     /// The ball threads' speed guard rail, as in lockstep: sub-steps whose speed was capped at
     /// `MAX_SPEED` (0 in every sane field).
     pub speed_limited: u64,
@@ -616,6 +620,7 @@ impl Runtime {
             judged_drift_max: f64::from_bits(self.shared.judged_drift_max.load(Ordering::Relaxed)),
             responses_late: self.shared.responses_late.load(Ordering::Relaxed),
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
+            responses_by_channel: self.shared.responses_by_channel.load(Ordering::Relaxed),
             speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),
             drag_limited: self.shared.drag_limited.load(Ordering::Relaxed),
             longest_cycle_seconds: (longest >> 16) as f64 * 1e-9,

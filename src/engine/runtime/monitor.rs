@@ -685,7 +685,7 @@ impl ContactPass {
     /// Remembers where the solve left every ball at the span's end (the next pass continues from
     /// there), and sends each ball with a response worth sending one stamped message.
     fn send_responses(&mut self, shared: &Shared, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
-        let (mut sent, mut dropped) = (0, 0);
+        let (mut sent, mut dropped, mut by_channel) = (0, 0, 0);
         for (i, response) in self.solver.responses().iter().enumerate() {
             let b = &self.balls[i];
             let r = &records[self.record_of[i] as usize];
@@ -745,6 +745,7 @@ impl ContactPass {
             if by_ring || inbox.commands.send(Message::Contact(message)).is_ok() {
                 if !by_ring {
                     in_flight.by_channel += 1;
+                    by_channel += 1;
                 }
                 in_flight.push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
                 sent += 1;
@@ -756,12 +757,14 @@ impl ContactPass {
         // rest of its bookkeeping).
         shared.contact_messages_sent.fetch_add(sent, Ordering::Relaxed);
         shared.messages_dropped.fetch_add(dropped, Ordering::Relaxed);
+        shared.responses_by_channel.fetch_add(by_channel, Ordering::Relaxed);
     }
 }
 
 /// Carries a ball from `(x, v)` at instant `t` through the response `m` as its thread does (see
 /// `ball_thread::catch_up`): on to the response's instant, the response applied, on to the end of
 /// its span in one stretch, held inside the field there. Returns the instant it is then at.
+#[inline]
 fn follow(
     motion: &Motion<'_>,
     field: &Field,

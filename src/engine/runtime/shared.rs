@@ -113,6 +113,9 @@ pub(crate) struct Shared {
     pub contact_impacts: AtomicU64,
     pub solves_unconverged: AtomicU64,
     pub messages_dropped: AtomicU64,
+    /// Contact responses the monitor sent by a ball's channel instead of its ring (Relaxed: a
+    /// statistic, added once a pass).
+    pub responses_by_channel: AtomicU64,
     /// The ball threads' guard rails (see `Lockstep`'s): speeds capped at `MAX_SPEED`, and cycles
     /// whose drag had its rate capped at 1/h. Relaxed: plain counters, touched only when a rail
     /// acts (0 in every sane field).
@@ -177,6 +180,7 @@ impl Shared {
             contact_impacts: AtomicU64::new(0),
             solves_unconverged: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),
+            responses_by_channel: AtomicU64::new(0),
             speed_limited: AtomicU64::new(0),
             drag_limited: AtomicU64::new(0),
             longest_cycle: AtomicU64::new(0),
