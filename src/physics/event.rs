@@ -41,8 +41,18 @@ pub fn flight(x0: DVec2, v0: DVec2, a: DVec2, t: f64) -> (DVec2, DVec2) {
 ///
 /// Roots use the form `q = −½·(b + sign(b)·√D)`, `t ∈ {q/a, c/q}`, which never subtracts nearly
 /// equal numbers.
+///
+/// Coefficients whose `b² − 4ac` overflows (a ball 1e308 m above the floor of a field that wide)
+/// are taken scaled by a power of two: the roots are ratios of the coefficients and do not change,
+/// and an infinite `√D` would put the event at t = 0.
 #[inline]
 pub fn entry_time(a: f64, b: f64, c: f64) -> Option<f64> {
+    entry_time_scaled(a, b, c, true)
+}
+
+/// [`entry_time`], scaling the coefficients when `rescale` and `D` is not finite.
+#[inline]
+fn entry_time_scaled(a: f64, b: f64, c: f64, rescale: bool) -> Option<f64> {
     if c <= 0.0 {
         if b < 0.0 {
             return Some(0.0);
@@ -59,6 +69,9 @@ pub fn entry_time(a: f64, b: f64, c: f64) -> Option<f64> {
         // It opens, then closes again at the larger root, (b + √D) / (−2a) (b ≥ 0: no
         // cancellation).
         let d = b * b - 4.0 * a * c;
+        if rescale && !d.is_finite() {
+            return rescaled(a, b, c);
+        }
         return Some(if d > 0.0 { (b + d.sqrt()) / (-2.0 * a) } else { turn });
     }
     if a == 0.0 {
@@ -69,6 +82,9 @@ pub fn entry_time(a: f64, b: f64, c: f64) -> Option<f64> {
             return None;
         }
         let d = b * b - 4.0 * a * c;
+        if rescale && !d.is_finite() {
+            return rescaled(a, b, c);
+        }
         if d <= 0.0 {
             // No real root, or a graze that touches without entering.
             return None;
@@ -77,8 +93,31 @@ pub fn entry_time(a: f64, b: f64, c: f64) -> Option<f64> {
         return Some(c / (0.5 * (d.sqrt() - b)));
     }
     // a < 0 < c: f falls to −∞ and crosses zero once for t > 0 (the roots' product c/a is < 0).
-    let d = (b * b - 4.0 * a * c).max(0.0);
+    let d = b * b - 4.0 * a * c;
+    if rescale && !d.is_finite() {
+        return rescaled(a, b, c);
+    }
+    let d = d.max(0.0);
     Some(if b >= 0.0 { -0.5 * (b + d.sqrt()) / a } else { c / (0.5 * (d.sqrt() - b)) })
+}
+
+/// [`entry_time`] of finite coefficients whose `D` overflowed, scaled so that the largest is
+/// below 1 in magnitude: then `b² − 4ac` is at most 5 and cannot overflow. The scale is a power
+/// of two, exact unless a coefficient falls below the smallest normal float — a loss below the
+/// largest's rounding. `D` overflows only when a coefficient exceeds 6.7e153 (2⁵¹¹), so the
+/// scale is 2^−k·2^−512 with k in 0..=512, each factor a normal float. Infinite or NaN
+/// coefficients are taken as they are.
+#[cold]
+fn rescaled(a: f64, b: f64, c: f64) -> Option<f64> {
+    let largest = a.abs().max(b.abs()).max(c.abs());
+    if !largest.is_finite() {
+        return entry_time_scaled(a, b, c, false);
+    }
+    // The largest's binary exponent e: it is below 2^(e + 1).
+    let e = ((largest.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+    let k = (e + 1 - 512).clamp(0, 512);
+    let (s, base) = (f64::from_bits(((1023 - k) as u64) << 52), f64::from_bits(((1023 - 512) as u64) << 52));
+    entry_time_scaled(a * s * base, b * s * base, c * s * base, false)
 }
 
 /// When a ball whose surface is `gap` m from a plane (a wall or a cell boundary; negative: past
@@ -410,3 +449,4 @@ pub fn cone_contains(normals: &[DVec2], dir: DVec2, slack: f64) -> bool {
     }
     left.is_finite() && right.is_finite() && left - right <= std::f64::consts::PI + slack
 }
+
