@@ -490,7 +490,9 @@ impl Placed {
         let reach = ((r / self.cell).ceil() as i64).max(1);
         for dy in -reach..=reach {
             for dx in -reach..=reach {
-                if let Some(list) = self.cells.get(&(cx + dx, cy + dy)) {
+                // Keys saturate beyond 9.2e18 cells from the origin (a field of 1e20 m): the
+                // neighbours of a saturated key are itself, not an overflow.
+                if let Some(list) = self.cells.get(&(cx.saturating_add(dx), cy.saturating_add(dy))) {
                     for &k in list {
                         let (q, rq) = self.balls[k];
                         let s = r + rq;

@@ -194,6 +194,14 @@ impl BroadPhase {
         let max_cells = (n + 16) as f64;
         let min_cell = (width * height / max_cells).sqrt();
         self.cell = (cell * (1.0 + self.margin) + self.skin).max(min_cell).max(f64::MIN_POSITIVE);
+        // A field much longer than it is wide has a row or column however large the cells (the
+        // counts round up to 1), and min_cell alone leaves cols·rows up to the long side over
+        // the cell: then the cells are also at least the long side over max_cells. Where the
+        // counts are within 4·max_cells (any field whose sides are both at most max_cells cells
+        // long: at most 3·max_cells + 1), the cell is as it always was.
+        if (width / self.cell).ceil() * (height / self.cell).ceil() > 4.0 * max_cells {
+            self.cell = self.cell.max(width.max(height) / max_cells);
+        }
         self.inverse_cell = 1.0 / self.cell;
         self.cols = ((width / self.cell).ceil() as usize).max(1);
         self.rows = ((height / self.cell).ceil() as usize).max(1);

@@ -50,17 +50,30 @@ struct Slot {
 /// not in pairs tested.
 const MAX_CELLS_PER_BALL: usize = 4;
 
+/// The most cells across or up a grid is sized from (2⁶⁰): finite, so that halving it ends, and
+/// far above any cap of [`MAX_CELLS_PER_BALL`] cells a ball.
+const MAX_COUNT: f64 = (1u64 << 60) as f64;
+
 impl Cells {
     /// A grid over a `width` × `height` field for `balls` balls of largest diameter `largest`.
     pub fn new(width: f64, height: f64, largest: f64, balls: usize) -> Cells {
         let reach = (largest * (1.0 + 1e-6)).max(f64::MIN_POSITIVE);
-        let mut nx = ((width / reach).floor() as usize).max(1);
-        let mut ny = ((height / reach).floor() as usize).max(1);
-        let cap = MAX_CELLS_PER_BALL * balls.max(1) + 16;
+        // The counts are sized in f64: a field the scene accepts may be up to f64::MAX m wide,
+        // and its count of cells overflows an integer, or the product of two counts wraps. Each
+        // count starts at most MAX_COUNT, so the halving ends within 61 passes. Every count is a
+        // whole number held exactly, for which `(n/2).ceil()` is `n.div_ceil(2)`: a field whose
+        // counts fit in integers gets the grid integers give. A NaN (which `clamp` keeps) is 1.
+        let count = |extent: f64| {
+            let n = (extent / reach).floor();
+            if n.is_nan() { 1.0 } else { n.clamp(1.0, MAX_COUNT) }
+        };
+        let (mut nx, mut ny) = (count(width), count(height));
+        let cap = MAX_CELLS_PER_BALL as f64 * balls.max(1) as f64 + 16.0;
         while nx * ny > cap {
-            nx = nx.div_ceil(2);
-            ny = ny.div_ceil(2);
+            nx = (nx / 2.0).ceil();
+            ny = (ny / 2.0).ceil();
         }
+        let (nx, ny) = (nx as usize, ny as usize);
         Cells {
             nx,
             ny,
