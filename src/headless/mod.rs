@@ -147,8 +147,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<Outcome, Headless
         engine::start(options.engine, &scene, options.threads).map_err(|e| HeadlessError::Engine(options.engine, e))?;
     let step = engine.step();
     let end = steps_for(options.length, step) as f64 * step;
-    let cpu = ProcessTime::now();
-    let mut stepping = Duration::ZERO;
+    let mut stepping = Stepping::default();
     let mut balls = Vec::new();
     let mut outcome = Ok(());
     if let (Some(rec), Some(frames)) = (&mut recorder, &options.frames) {
@@ -158,8 +157,7 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<Outcome, Headless
         advance(engine.as_mut(), end, &mut stepping);
     }
     engine.quiesce();
-    let cpu_seconds = cpu.elapsed().as_secs_f64();
-    let report = finish(&scene, options, engine.as_mut(), start, stepping, cpu_seconds, rss_before, &mut balls);
+    let report = finish(&scene, options, engine.as_mut(), start, stepping, rss_before, &mut balls);
     let shutdown = engine.shutdown();
     for p in &shutdown.panics {
         log::error!("a ball thread had panicked: {p}");
@@ -177,11 +175,21 @@ pub fn run(scene: &Scene, options: &HeadlessOptions) -> Result<Outcome, Headless
     Ok(Outcome { report, frames: recorder.map(Recorder::finish), state_out })
 }
 
+/// The wall-clock time a run spent advancing its engine, and the process's CPU time over the
+/// same stretches (not while frames are drawn, nor while the engine quiesces at the end), so
+/// that their ratio is the cores the engine kept busy.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stepping {
+    wall: Duration,
+    cpu: Duration,
+}
+
 /// Advances `engine` to `t`, adding the time it took to `stepping`.
-fn advance(engine: &mut dyn Engine, t: f64, stepping: &mut Duration) {
-    let clock = Instant::now();
+fn advance(engine: &mut dyn Engine, t: f64, stepping: &mut Stepping) {
+    let (clock, cpu) = (Instant::now(), ProcessTime::now());
     engine.advance_to(t);
-    *stepping += clock.elapsed();
+    stepping.wall += clock.elapsed();
+    stepping.cpu += cpu.elapsed();
 }
 
 /// Draws a frame every `every` seconds of the engine's clock from 0 to `end` inclusive (to a hair
@@ -191,7 +199,7 @@ fn record(
     rec: &mut Recorder,
     every: f64,
     (end, step): (f64, f64),
-    stepping: &mut Duration,
+    stepping: &mut Stepping,
     balls: &mut Vec<Ball>,
 ) -> Result<(), HeadlessError> {
     let field = engine.field();
@@ -226,15 +234,15 @@ fn finish(
     options: &HeadlessOptions,
     engine: &mut dyn Engine,
     start: crate::physics::Diagnostics,
-    stepping: Duration,
-    cpu_seconds: f64,
+    stepping: Stepping,
     rss_before: Option<u64>,
     balls: &mut Vec<Ball>,
 ) -> RunReport {
     let figures = engine.figures();
     let end = engine.diagnostics();
     engine.sample(balls);
-    let wall_seconds = stepping.as_secs_f64();
+    let wall_seconds = stepping.wall.as_secs_f64();
+    let cpu_seconds = stepping.cpu.as_secs_f64();
     RunReport {
         scene: scene.name.clone(),
         scene_file: options.scene_file.clone(),

@@ -94,9 +94,10 @@ pub struct ThreadedFigures {
     /// this object in the JSON.
     #[serde(flatten)]
     pub stats: RuntimeStats,
-    /// CPU time the whole process used during the run, s, and as cores busy on average.
+    /// CPU time the whole process used while the engine advanced (see `Stepping`), s.
     pub cpu_seconds: f64,
-    /// `cpu_seconds` divided by the wall-clock seconds of stepping: cores busy on average.
+    /// `cpu_seconds` divided by the wall-clock seconds of stepping (the same stretches): cores
+    /// busy on average.
     pub cpu_cores_used: f64,
     /// Wall-clock time the shutdown took to stop and join every thread, s.
     pub shutdown_seconds: f64,
