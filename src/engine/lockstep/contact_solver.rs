@@ -109,22 +109,57 @@ pub struct ContactSolver {
     key_working: Option<usize>,
 }
 
-/// The balls in slot order (only filled for the parallel case).
+/// The balls in slot order, the copy the parallel phases work on (both lockstep contact paths).
 #[derive(Clone, Debug, Default)]
-struct SlotBodies {
-    id: Vec<BallId>,
-    inverse_mass: Vec<f64>,
-    radius: Vec<f64>,
-    position: Vec<DVec2>,
-    velocity: Vec<DVec2>,
+pub(super) struct SlotBodies {
+    pub(super) id: Vec<BallId>,
+    pub(super) inverse_mass: Vec<f64>,
+    pub(super) radius: Vec<f64>,
+    pub(super) position: Vec<DVec2>,
+    pub(super) velocity: Vec<DVec2>,
 }
 
-/// The working arrays' fixed part, indexed like the contacts say.
+impl SlotBodies {
+    /// Copies the balls of `b` into slot order (`slots[k]` is the ball in slot k); each task
+    /// writes its own slots, the bodies are only read.
+    pub(super) fn gather(&mut self, b: &Bodies, slots: &[u32]) {
+        let n = slots.len();
+        self.id.resize(n, BallId(0));
+        self.inverse_mass.resize(n, 0.0);
+        self.radius.resize(n, 0.0);
+        self.position.resize(n, DVec2::ZERO);
+        self.velocity.resize(n, DVec2::ZERO);
+        self.id
+            .par_iter_mut()
+            .zip(&mut self.inverse_mass)
+            .zip(&mut self.radius)
+            .zip(&mut self.position)
+            .zip(&mut self.velocity)
+            .enumerate()
+            .for_each(|(k, ((((id, w), r), x), v))| {
+                let i = slots[k] as usize;
+                (*id, *w, *r, *x, *v) = (b.id[i], b.inverse_mass[i], b.radius[i], b.position[i], b.velocity[i]);
+            });
+    }
+
+    /// Writes the copy's positions and velocities back to `b` (`ball_slot[i]` is ball i's slot);
+    /// each task writes its own balls, the copy is only read.
+    pub(super) fn scatter(&self, b: &mut Bodies, ball_slot: &[u32]) {
+        let (lx, lv) = (&self.position, &self.velocity);
+        b.position.par_iter_mut().zip(&mut b.velocity).enumerate().for_each(|(i, (x, v))| {
+            let k = ball_slot[i] as usize;
+            (*x, *v) = (lx[k], lv[k]);
+        });
+    }
+}
+
+/// The working arrays' fixed part, indexed like the contacts say: what the solvers read but
+/// never write.
 #[derive(Clone, Copy)]
-struct Fixed<'a> {
-    id: &'a [BallId],
-    inverse_mass: &'a [f64],
-    radius: &'a [f64],
+pub(super) struct Fixed<'a> {
+    pub(super) id: &'a [BallId],
+    pub(super) inverse_mass: &'a [f64],
+    pub(super) radius: &'a [f64],
 }
 
 fn key(a: BallId, b: BallId) -> (BallId, BallId) {
@@ -235,25 +270,8 @@ impl ContactSolver {
     /// The same phases with the bands (then the seams) on the pool's threads, on a slot-ordered
     /// copy of the balls (see the module comment).
     fn solve_parallel(&mut self, b: &mut Bodies, grid: &BroadPhase, inputs: &Inputs<'_>) -> Outcome {
-        let slots = grid.slots();
-        let n = slots.len();
         let mut l = std::mem::take(&mut self.local);
-        l.id.resize(n, BallId(0));
-        l.inverse_mass.resize(n, 0.0);
-        l.radius.resize(n, 0.0);
-        l.position.resize(n, DVec2::ZERO);
-        l.velocity.resize(n, DVec2::ZERO);
-        // Gather (each task writes its own slots; the bodies are only read).
-        l.id.par_iter_mut()
-            .zip(&mut l.inverse_mass)
-            .zip(&mut l.radius)
-            .zip(&mut l.position)
-            .zip(&mut l.velocity)
-            .enumerate()
-            .for_each(|(k, ((((id, w), r), x), v))| {
-                let i = slots[k] as usize;
-                (*id, *w, *r, *x, *v) = (b.id[i], b.inverse_mass[i], b.radius[i], b.position[i], b.velocity[i]);
-            });
+        l.gather(b, grid.slots());
         let ball_slot = grid.ball_slots();
         let fixed = Fixed { id: &l.id, inverse_mass: &l.inverse_mass, radius: &l.radius };
         self.build(fixed, &l.position, &l.velocity, grid, inputs, |k| k, |i| ball_slot[i] as usize);
@@ -262,12 +280,7 @@ impl ContactSolver {
         let parts = Parts { bands: &bands, seams: &seams };
         let outcome = self.phases(&mut l.position, &mut l.velocity, fixed, inputs, &parts, &|k| k);
         self.keep();
-        // Scatter (each task writes its own balls; the copy is only read).
-        let (lx, lv) = (&l.position, &l.velocity);
-        b.position.par_iter_mut().zip(&mut b.velocity).enumerate().for_each(|(i, (x, v))| {
-            let k = ball_slot[i] as usize;
-            (*x, *v) = (lx[k], lv[k]);
-        });
+        l.scatter(b, ball_slot);
         self.local = l;
         outcome
     }

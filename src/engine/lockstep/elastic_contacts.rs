@@ -31,8 +31,8 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::PARALLEL_MIN_PAIRS;
-use super::contact_solver::split_runs;
-use crate::physics::{BallId, Bodies, BroadPhase, ContactBody, contact_ball_ball};
+use super::contact_solver::{Fixed, SlotBodies, split_runs};
+use crate::physics::{Bodies, BroadPhase, ContactBody, contact_ball_ball};
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -55,24 +55,6 @@ pub struct ElasticContacts {
     seam_pairs: Vec<Vec<(u32, u32)>>,
     big_pairs: Vec<(u32, u32)>,
     local: SlotBodies,
-}
-
-/// The balls in slot order (only filled for the parallel case).
-#[derive(Clone, Debug, Default)]
-struct SlotBodies {
-    id: Vec<BallId>,
-    inverse_mass: Vec<f64>,
-    radius: Vec<f64>,
-    position: Vec<DVec2>,
-    velocity: Vec<DVec2>,
-}
-
-/// What the solver reads but never writes, indexed like the pair lists say.
-#[derive(Clone, Copy)]
-struct Fixed<'a> {
-    id: &'a [BallId],
-    inverse_mass: &'a [f64],
-    radius: &'a [f64],
 }
 
 impl ElasticContacts {
@@ -161,25 +143,8 @@ impl ElasticContacts {
     /// The same passes with the bands (then the seams) on the pool's threads, on a slot-ordered
     /// copy of the balls (see the module comment).
     fn solve_parallel(&mut self, b: &mut Bodies, grid: &BroadPhase, e: f64, dt: f64, iterations: usize) -> u64 {
-        let slots = grid.slots();
-        let n = slots.len();
         let l = &mut self.local;
-        l.id.resize(n, BallId(0));
-        l.inverse_mass.resize(n, 0.0);
-        l.radius.resize(n, 0.0);
-        l.position.resize(n, DVec2::ZERO);
-        l.velocity.resize(n, DVec2::ZERO);
-        // Gather (each task writes its own slots; the bodies are only read).
-        l.id.par_iter_mut()
-            .zip(&mut l.inverse_mass)
-            .zip(&mut l.radius)
-            .zip(&mut l.position)
-            .zip(&mut l.velocity)
-            .enumerate()
-            .for_each(|(k, ((((id, w), r), x), v))| {
-                let i = slots[k] as usize;
-                (*id, *w, *r, *x, *v) = (b.id[i], b.inverse_mass[i], b.radius[i], b.position[i], b.velocity[i]);
-            });
+        l.gather(b, grid.slots());
         let fixed = Fixed { id: &l.id, inverse_mass: &l.inverse_mass, radius: &l.radius };
         let bands: Vec<Range<usize>> = (0..grid.band_count()).map(|k| grid.band_slots(k)).collect();
         let seams: Vec<Range<usize>> = (0..self.seam_pairs.len()).map(|k| grid.seam_slots(k)).collect();
@@ -201,13 +166,7 @@ impl ElasticContacts {
                 break;
             }
         }
-        // Scatter (each task writes its own balls; the copy is only read).
-        let ball_slot = grid.ball_slots();
-        let (lx, lv) = (&l.position, &l.velocity);
-        b.position.par_iter_mut().zip(&mut b.velocity).enumerate().for_each(|(i, (x, v))| {
-            let k = ball_slot[i] as usize;
-            (*x, *v) = (lx[k], lv[k]);
-        });
+        l.scatter(b, grid.ball_slots());
         impulses
     }
 }

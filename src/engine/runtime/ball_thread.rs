@@ -175,8 +175,8 @@ enum Handled {
 /// the table at `slot` (written by the runtime before this thread started).
 ///
 /// Each cycle: wait for it, take what arrived ([`take_arrivals`]), pick up new parameters, then
-/// either stand at the horizon while paused ([`paused_cycle`]) or catch up to the clock
-/// ([`running_cycle`]).
+/// either stand at the horizon while paused ([`Cycles::paused`]) or catch up to the clock
+/// ([`Cycles::running`]).
 pub(crate) fn run_ball(
     shared: Arc<Shared>,
     slot: usize,
@@ -194,7 +194,7 @@ pub(crate) fn run_ball(
     let cycle = shared.config.ball_cycle;
     // The runtime wrote the first record, with the instant it was placed at.
     let time = shared.table.read(slot).map_or_else(|| shared.clock(Instant::now()), |r| r.time);
-    let mut state = BallState {
+    let state = BallState {
         ball,
         slot,
         pull: DVec2::ZERO,
@@ -209,19 +209,20 @@ pub(crate) fn run_ball(
         direct_cycles: 0,
         longest_cycle: 0,
     };
-    let mut params: Params = shared.params.read().clone();
+    let params: Params = shared.params.read().clone();
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
     // generation means the read lock below returns the parameters written before it.
     let mut generation = shared.params_generation.load(Ordering::Acquire);
-    let mut scratch = CycleScratch::new(&params.effects);
+    let scratch = CycleScratch::new(&params.effects);
+    let mut ball = Cycles { shared: &shared, state, commands: Commands::default(), params, scratch };
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
-    // Commands taken from the inbox and not yet in effect (see `Commands`).
-    let mut commands = Commands::default();
     loop {
         let mut now = waiter.wait(last);
-        let Some((horizon, received)) = take_arrivals(&shared, &inbox, &contacts, &mut state, &mut commands, &mut now)
+        let Some((horizon, received)) =
+            take_arrivals(&shared, &inbox, &contacts, &mut ball.state, &mut ball.commands, &mut now)
         else {
+            let Cycles { mut state, mut commands, params, .. } = ball;
             commands.apply(&mut state);
             state.publish(&shared, &params);
             state.flush_counts(&shared);
@@ -235,18 +236,29 @@ pub(crate) fn run_ball(
         let g = shared.params_generation.load(Ordering::Acquire);
         if g != generation {
             generation = g;
-            params = shared.params.read().clone();
-            *scratch.forces = Forces::new(&params.effects);
+            ball.params = shared.params.read().clone();
+            *ball.scratch.forces = Forces::new(&ball.params.effects);
         }
         // Relaxed: pausing carries no data; a ball that notices a cycle late loses nothing. A
         // command sent after the pause was asked for is seen with it: the send happens after the
         // store, and the receive above after the send (the channel orders them).
         if shared.paused.load(Ordering::Relaxed) {
-            paused_cycle(horizon, received, &mut state, &mut commands, &params, &shared, &mut scratch);
+            ball.paused(horizon, received);
         } else {
-            running_cycle(now, horizon, received, &mut state, &mut commands, &params, &shared, &mut scratch);
+            ball.running(now, horizon, received);
         }
     }
+}
+
+/// What a ball's thread carries from cycle to cycle: its state, the commands not yet in effect,
+/// the parameters and the scratch memory of its cycles.
+struct Cycles<'a> {
+    shared: &'a Shared,
+    state: BallState,
+    /// Commands taken from the inbox and not yet in effect (see `Commands`).
+    commands: Commands,
+    params: Params,
+    scratch: CycleScratch,
 }
 
 /// Takes what arrived since the last cycle; returns the horizon the monitor had published by
@@ -278,63 +290,48 @@ fn take_arrivals(
     }
 }
 
-/// A cycle while paused. The monitor judges nothing while paused, so the horizon stands: the
-/// ball catches up to it, applying each response it holds at its instant, and stops there. The
-/// paused table is then one instant for every ball, with every message applied (the monitor
-/// sees them applied). That is at most a horizon of simulated time after the pause was asked
-/// for.
-#[allow(clippy::too_many_arguments)]
-fn paused_cycle(
-    horizon: u64,
-    received: bool,
-    state: &mut BallState,
-    commands: &mut Commands,
-    params: &Params,
-    shared: &Shared,
-    scratch: &mut CycleScratch,
-) {
-    state.flush_counts(shared);
-    let (from, applied) = (state.time, state.applied);
-    catch_up(horizon, horizon, state, params, shared.config.max_step, shared, scratch);
-    // The commands take effect at the paused instant, so that a velocity set while paused is the
-    // velocity the paused table shows: once the ball stands at the horizon as it is now (the one
-    // read before may be older, if the thread waited since).
-    let commanded = state.time >= shared.horizon.load(Ordering::Acquire) && commands.apply(state);
-    if received || commanded || state.applied != applied || state.time != from {
-        state.publish(shared, params);
-    }
-}
-
-/// A cycle while running: the commands take effect, then the ball catches up to the clock at
-/// `now`, no further than the horizon, and publishes if anything changed.
-#[allow(clippy::too_many_arguments)]
-fn running_cycle(
-    now: Instant,
-    horizon: u64,
-    received: bool,
-    state: &mut BallState,
-    commands: &mut Commands,
-    params: &Params,
-    shared: &Shared,
-    scratch: &mut CycleScratch,
-) {
-    let commanded = commands.apply(state);
-    let clock = shared.clock(now);
-    if clock > horizon {
-        // Relaxed: a statistic.
-        shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
-    }
-    let (from, applied) = (state.time, state.applied);
-    let source = catch_up(clock.min(horizon), horizon, state, params, shared.config.max_step, shared, scratch);
-    if state.time > from {
-        state.count(source);
-        state.updates += 1;
-    }
-    if state.time > from || state.applied != applied || received || commanded {
-        state.publish(shared, params);
-    }
-    if state.updates.is_multiple_of(COUNTER_FLUSH) {
+impl Cycles<'_> {
+    /// A cycle while paused. The monitor judges nothing while paused, so the horizon stands: the
+    /// ball catches up to it, applying each response it holds at its instant, and stops there.
+    /// The paused table is then one instant for every ball, with every message applied (the
+    /// monitor sees them applied). That is at most a horizon of simulated time after the pause
+    /// was asked for.
+    fn paused(&mut self, horizon: u64, received: bool) {
+        let Cycles { shared, state, commands, params, scratch } = self;
         state.flush_counts(shared);
+        let (from, applied) = (state.time, state.applied);
+        catch_up(horizon, horizon, state, params, shared.config.max_step, shared, scratch);
+        // The commands take effect at the paused instant, so that a velocity set while paused is
+        // the velocity the paused table shows: once the ball stands at the horizon as it is now
+        // (the one read before may be older, if the thread waited since).
+        let commanded = state.time >= shared.horizon.load(Ordering::Acquire) && commands.apply(state);
+        if received || commanded || state.applied != applied || state.time != from {
+            state.publish(shared, params);
+        }
+    }
+
+    /// A cycle while running: the commands take effect, then the ball catches up to the clock
+    /// at `now`, no further than the horizon, and publishes if anything changed.
+    fn running(&mut self, now: Instant, horizon: u64, received: bool) {
+        let Cycles { shared, state, commands, params, scratch } = self;
+        let commanded = commands.apply(state);
+        let clock = shared.clock(now);
+        if clock > horizon {
+            // Relaxed: a statistic.
+            shared.horizon_waits.fetch_add(1, Ordering::Relaxed);
+        }
+        let (from, applied) = (state.time, state.applied);
+        let source = catch_up(clock.min(horizon), horizon, state, params, shared.config.max_step, shared, scratch);
+        if state.time > from {
+            state.count(source);
+            state.updates += 1;
+        }
+        if state.time > from || state.applied != applied || received || commanded {
+            state.publish(shared, params);
+        }
+        if state.updates.is_multiple_of(COUNTER_FLUSH) {
+            state.flush_counts(shared);
+        }
     }
 }
 
