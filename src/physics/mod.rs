@@ -15,6 +15,7 @@ mod effects;
 mod event;
 mod field;
 mod forces;
+mod impact_round;
 mod integrator;
 mod step_policy;
 mod sweep;
@@ -50,6 +51,7 @@ pub use field::{Field, Wall, WallImpulses};
 pub use forces::{
     AttractionMethod, BallForces, BallProps, BodyProps, Forces, NoOtherBalls, OtherBalls, PointForce, TREE_MIN_BALLS,
 };
+pub use impact_round::{MAX_SIMULTANEOUS_SWEEPS, RoundContact, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

@@ -55,6 +55,15 @@
 //! comes within a time `tc` of the ball's last: that keeps a ball rattling between two held
 //! neighbours for ever, at the energy it had when its collisions came faster than `1/tc`.
 //!
+//! **Simultaneous impacts.** A fast collision of two free balls that touch, at that instant,
+//! other free balls closing on them just as fast (a ball striking two touching balls between
+//! them) is one round of simultaneous impacts, solved together as the stepped engines solve an
+//! impact round ([`crate::physics::solve_simultaneous`], [`World::strike_simultaneous`]):
+//! taken one after the other, the first impact would deflect the striking ball before the
+//! second, and the outcome would follow the balls' numbering. Contacts with balls at rest and
+//! walls, and contacts that are not closing (a row of touching balls struck at one end), are
+//! their own events a moment later in the same instant: sequential impacts.
+//!
 //! **Many collisions at one instant.** Touching balls held at both ends (a row between balls at
 //! rest, a ball in a gap a hair narrower than itself) can pass slow collisions around without the
 //! clock moving; [`World::note_instant`] bounds them: a ball's 17th slow collision at one
@@ -77,8 +86,8 @@ use serde::Serialize;
 use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
-    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, WallImpulses, closing_slack, coincident_normal,
-    collide, cone_contains, flight, pair_time, plane_time, soft_restitution,
+    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, RoundContact, WallImpulses, closing_slack,
+    coincident_normal, collide, cone_contains, flight, pair_time, plane_time, soft_restitution, solve_simultaneous,
 };
 
 /// The walls' inward normals, in the order of [`Partner::Wall`]: left, right, bottom, top.
@@ -184,8 +193,12 @@ struct Cold {
 /// What the engine counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ExactCounters {
-    /// Ball–ball collisions (a cluster resolved at once counts as one).
+    /// Ball–ball collisions (a cluster resolved at once counts as one; a round of simultaneous
+    /// impacts, as its contacts that took an impulse).
     pub collisions: u64,
+    /// Rounds of simultaneous impacts: fast contacts of free balls at one instant, solved
+    /// together.
+    pub simultaneous_rounds: u64,
     /// Bounces off a wall.
     pub wall_bounces: u64,
     /// Crossings of a ball's centre into another cell of the grid.
@@ -1348,6 +1361,9 @@ impl World {
             self.resolve_cluster([i, j]);
             return;
         }
+        if -vn > self.params.collapse_speed && self.strike_simultaneous(i, j) {
+            return;
+        }
         let mob_i = self.mobility(i, -n);
         let mob_j = self.mobility(j, n);
         let e = match self.effects.collisions {
@@ -1394,6 +1410,99 @@ impl World {
         self.predict(i);
         self.predict(j);
         self.predict_others([i, j]);
+    }
+
+    /// The fast collision of free balls i and j (which touch now), struck together with every
+    /// other contact of free balls touching them now, through each other, and closing faster
+    /// than the collapse speed: one round of simultaneous impacts
+    /// ([`crate::physics::solve_simultaneous`]), so that a ball striking two touching balls
+    /// between them leaves them as mirror images whatever their numbering. Returns false, and
+    /// changes nothing, when the pair is the only such contact (a binary collision, struck by
+    /// [`World::collide_pair`] along `Δr` itself) or either ball is not free.
+    fn strike_simultaneous(&mut self, i: usize, j: usize) -> bool {
+        let free = |w: &World, k: usize| w.cold[k].motion == Motion::Free;
+        if !free(self, i) || !free(self, j) {
+            return false;
+        }
+        let closing_fast = |w: &World, a: usize, b: usize| {
+            let ((xa, va), (xb, vb)) = (w.at(a), w.at(b));
+            let d = xb - xa;
+            (vb - va).dot(d) < -w.params.collapse_speed * d.length()
+        };
+        let mut members = vec![i, j];
+        let mut pairs = vec![(0usize, 1usize)];
+        let mut near = Vec::new();
+        let mut g = 0;
+        while g < members.len() && members.len() < MAX_GROUP {
+            let m = members[g];
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in &near {
+                if k == m || !free(self, k) || !self.touching(m, k) || !closing_fast(self, m, k) {
+                    continue;
+                }
+                let slot = match members.iter().position(|&x| x == k) {
+                    Some(s) => s,
+                    None => {
+                        members.push(k);
+                        members.len() - 1
+                    }
+                };
+                let pair = (g.min(slot), g.max(slot));
+                if !pairs.contains(&pair) {
+                    pairs.push(pair);
+                }
+            }
+            g += 1;
+        }
+        if pairs.len() == 1 {
+            return false;
+        }
+        // i and j have their collision at this instant noted by the caller.
+        for (s, &m) in members.iter().enumerate() {
+            self.sync(m);
+            if s >= 2 {
+                self.note_instant(m);
+            }
+        }
+        let e = self.effects.collisions.map_or(1.0, |c| c.restitution);
+        let mut v: Vec<DVec2> = members.iter().map(|&m| self.hot[m].v).collect();
+        let mut round: Vec<RoundContact> = pairs
+            .iter()
+            .map(|&(a, b)| {
+                let (ka, kb) = (members[a], members[b]);
+                let normal = (self.hot[kb].x - self.hot[ka].x)
+                    .normalize_or(coincident_normal(self.cold[ka].id, self.cold[kb].id));
+                let vn = (v[b] - v[a]).dot(normal);
+                let e_eff = soft_restitution(e, -vn, self.params.collapse_speed);
+                if e_eff != e {
+                    self.counters.soft_collisions += 1;
+                }
+                RoundContact {
+                    a,
+                    b: Some(b),
+                    normal,
+                    inverse_mass_a: self.cold[ka].inverse_mass,
+                    inverse_mass_b: self.cold[kb].inverse_mass,
+                    target: if vn < 0.0 { -e_eff * vn } else { vn },
+                    impulse: 0.0,
+                }
+            })
+            .collect();
+        let mut counts = Vec::new();
+        solve_simultaneous(&mut round, &mut v, &mut counts);
+        self.counters.collisions += round.iter().filter(|c| c.impulse > 0.0).count() as u64;
+        self.counters.simultaneous_rounds += 1;
+        for (&m, &vm) in members.iter().zip(&v) {
+            self.hot[m].v = vm;
+            self.settle(m);
+            self.restart_course(m);
+        }
+        for &m in &members {
+            self.predict(m);
+        }
+        self.predict_others([i, j]);
+        true
     }
 
     /// The rest model of [`World::collide_pair`]: a pair pressed together (their accelerations
