@@ -1429,6 +1429,26 @@ impl World {
             let d = xb - xa;
             (vb - va).dot(d) < -w.params.collapse_speed * d.length()
         };
+        // Nearly every collision is binary: that is told first, without gathering anything, by
+        // the neighbours' distances (most are out of reach at once).
+        let other_contact = |w: &World, m: usize, partner: usize| {
+            let (xm, rm, dm) = (w.hot[m].x, w.hot[m].r, w.cold[m].diameter);
+            let mut found = false;
+            w.cells.for_each_near(m, |k| {
+                if found || k == m || k == partner {
+                    return;
+                }
+                let h = &w.hot[k];
+                let t = w.now - h.t;
+                let d = h.x + (h.v + 0.5 * h.a * t) * t - xm;
+                let reach = rm + h.r + 1e-6 * dm.min(w.cold[k].diameter);
+                found = d.length_squared() <= reach * reach && free(w, k) && w.touching(m, k) && closing_fast(w, m, k);
+            });
+            found
+        };
+        if !other_contact(self, i, j) && !other_contact(self, j, i) {
+            return false;
+        }
         let mut members = vec![i, j];
         let mut pairs = vec![(0usize, 1usize)];
         let mut near = Vec::new();
