@@ -55,6 +55,7 @@ use rustc_hash::FxHashMap;
 use super::ball::BallId;
 use super::contact::coincident_normal;
 use super::field::{Field, Wall, WallImpulses};
+use super::impact_round::{RoundContact, solve_simultaneous};
 use super::integrator::Integrator;
 
 /// Gap, relative to the contact distance, within which two balls (or a ball and a wall) still
@@ -429,9 +430,7 @@ struct Row {
     index: u32,
     /// Approach target `−e·v_n⁻` and the round's accumulated impulse.
     target: f64,
-    approach: f64,
     lambda: f64,
-    delta: f64,
     /// When the impulse acts, s before the end of the span (see [`impact_phase`]).
     time: f64,
 }
@@ -440,12 +439,14 @@ struct Row {
 #[derive(Clone, Debug, Default)]
 pub struct ImpactScratch {
     rows: Vec<Row>,
-    /// Contacts of the current round on each ball.
+    /// Contacts of the current round on each ball (zero between rounds).
     count: Vec<u32>,
     /// Latest impact instant on each ball so far (s before the end; +∞ if none).
     latest: Vec<f64>,
     touched: Vec<u32>,
     candidates: Vec<(u32, u32)>,
+    /// The current round's rows as [`solve_simultaneous`] takes them.
+    round: Vec<RoundContact>,
 }
 
 /// What the impact phase did.
@@ -585,62 +586,37 @@ impl ImpactScratch {
                     list: l,
                     index: k,
                     target: -c.restitution * settling(-vn, impact_threshold) * vn,
-                    approach: -vn,
                     lambda: 0.0,
-                    delta: 0.0,
                     time,
                 });
             }
         }
     }
 
-    /// Solves the round's rows together in Jacobi sweeps with each ball's mass split among its
-    /// contacts of the round, applying each sweep's impulses to `v`. Returns false when the sweeps
-    /// reached their cap.
+    /// Solves the round's rows together ([`solve_simultaneous`]: Jacobi sweeps with each ball's
+    /// mass split among its contacts of the round), applying the impulses to `v`. Returns false
+    /// when the sweeps reached their cap.
     fn sweep_round(&mut self, lists: &[Vec<Contact>], v: &mut [DVec2], impact_threshold: f64) -> bool {
-        let mut shared = false;
+        self.round.clear();
         for r in &self.rows {
             let c = &lists[r.list as usize][r.index as usize];
-            for i in [c.a, c.b] {
-                if i != WALL {
-                    self.count[i as usize] += 1;
-                    shared |= self.count[i as usize] > 1;
-                }
-            }
+            self.round.push(RoundContact {
+                a: c.a as usize,
+                b: (!c.is_wall()).then_some(c.b as usize),
+                normal: c.normal,
+                inverse_mass_a: c.inverse_mass_a,
+                inverse_mass_b: c.inverse_mass_b,
+                bias: c.bias,
+                target: r.target,
+                impulse: r.lambda,
+                delta: 0.0,
+            });
         }
-        let mut scale = 0.0f64;
-        for r in &self.rows {
-            scale = scale.max(r.approach);
+        let converged = solve_simultaneous(&mut self.round, v, &mut self.count, 1e-3 * impact_threshold);
+        for (r, c) in self.rows.iter_mut().zip(&self.round) {
+            r.lambda = c.impulse;
         }
-        // Converged when no sweep changes a relative velocity by more than this.
-        let tolerance = 1e-14 * scale + 1e-3 * impact_threshold;
-        let mut iterations = 0;
-        loop {
-            let mut largest = 0.0f64;
-            for r in self.rows.iter_mut() {
-                let c = &lists[r.list as usize][r.index as usize];
-                let vn = normal_velocity(c, v, 0) + c.bias;
-                let ka = self.count[c.a as usize] as f64;
-                let kb = if c.is_wall() { 0.0 } else { self.count[c.b as usize] as f64 };
-                let split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
-                let lambda = (r.lambda + (r.target - vn) / split).max(0.0);
-                r.delta = lambda - r.lambda;
-                r.lambda = lambda;
-                largest = largest.max(r.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
-            }
-            for r in &self.rows {
-                let c = &lists[r.list as usize][r.index as usize];
-                apply(c, r.delta, v, 0);
-            }
-            iterations += 1;
-            // Without shared balls one sweep is the exact answer.
-            if !shared || largest <= tolerance {
-                return true;
-            }
-            if iterations == MAX_ROUND_ITERATIONS {
-                return false;
-            }
-        }
+        converged
     }
 
     /// Records the round's impulses on their contacts and replays them: each ball moves on by
@@ -650,10 +626,6 @@ impl ImpactScratch {
         let mut impacts = 0;
         for r in &self.rows {
             let c = &mut lists[r.list as usize][r.index as usize];
-            self.count[c.a as usize] = 0;
-            if !c.is_wall() {
-                self.count[c.b as usize] = 0;
-            }
             if r.lambda > 0.0 {
                 if c.impact == 0.0 {
                     impacts += 1;

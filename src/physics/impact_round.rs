@@ -4,22 +4,23 @@
 //! Taken one after the other, the first impact deflects the striking ball before the second is
 //! seen, so the result depends on which is taken first (on the balls' numbering) and a
 //! mirror-symmetric collision comes out lopsided. Solved together they give the symmetric
-//! answer. The method is the stepped solver's impact round (`contact_solver.rs`,
-//! `ImpactScratch::sweep_round`): accumulated impulses `λ ≥ 0` with `v_n⁺ ≥ −e·v_n⁻` and
-//! complementarity, by Jacobi sweeps in which each ball's mass is split among its contacts
-//! (Tonge et al. 2012). Every update of a sweep is computed from the same velocities, so the
+//! answer. It is the one impact round of every engine: the stepped solver's rounds
+//! (`contact_solver.rs`, lockstep and the threaded monitor) and the exact engine's simultaneous
+//! impacts (`engine/exact/world.rs`) call [`solve_simultaneous`]. Accumulated impulses
+//! `λ ≥ 0` with `v_n⁺ ≥ −e·v_n⁻` and complementarity, by Jacobi sweeps in which each ball's mass
+//! is split among its contacts (Tonge et al. 2012). Every update of a sweep is computed from the same velocities, so the
 //! order of the contacts does not matter. A round of contacts that share no ball is one binary
 //! collision each, solved in one sweep; for e = 1 the converged round keeps the energy (each
 //! contact reverses its normal velocity).
 
 use glam::DVec2;
 
-/// The most Jacobi sweeps of one round.
-pub const MAX_SIMULTANEOUS_SWEEPS: u32 = 1000;
+use super::contact_solver::MAX_ROUND_ITERATIONS;
 
 /// One contact of a round: ball `a` and ball `b` (`None`: an immovable support), the unit
-/// normal from `a` to `b`, the inverse masses, and the target normal speed after the impact
-/// (`−e·v_n⁻`). `impulse` is the solution (N·s along `normal`, on `b`; `−impulse` on `a`).
+/// normal from `a` to `b`, the inverse masses, the normal speed's bias, and the target normal
+/// speed after the impact (`−e·v_n⁻`). `impulse` is the solution (N·s along `normal`, on `b`;
+/// `−impulse` on `a`), accumulated from the value it comes in with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RoundContact {
     /// Index of ball a in the velocities.
@@ -32,60 +33,73 @@ pub struct RoundContact {
     pub inverse_mass_a: f64,
     /// 1/m of b (0 for a support).
     pub inverse_mass_b: f64,
-    /// The normal speed `(v_b − v_a)·n` the impact aims at: `−e·v_n⁻`.
+    /// Added to the normal speed `(v_b − v_a)·n` wherever it is judged (the stepped solver's
+    /// wall bias; 0 elsewhere).
+    pub bias: f64,
+    /// The normal speed (with its bias) the impact aims at: `−e·v_n⁻`.
     pub target: f64,
     /// The impulse found.
     pub impulse: f64,
+    /// The last sweep's change of `impulse` (scratch).
+    pub delta: f64,
 }
 
 impl RoundContact {
+    /// The normal speed with its bias.
+    #[inline(always)]
     fn normal_speed(&self, v: &[DVec2]) -> f64 {
         let vb = self.b.map_or(DVec2::ZERO, |b| v[b]);
-        (vb - v[self.a]).dot(self.normal)
+        (vb - v[self.a]).dot(self.normal) + self.bias
     }
 }
 
 /// Solves `contacts` together, changing the velocities `v` (indexed by the contacts' balls):
 /// each contact's impulse is `≥ 0` and brings its normal speed to at least its target, with
-/// complementarity. `counts` is scratch, as long as `v`. Returns whether the sweeps converged
-/// (no relative speed changed by more than 1e-14 of the largest target) before
-/// [`MAX_SIMULTANEOUS_SWEEPS`].
-pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts: &mut Vec<u32>) -> bool {
-    counts.clear();
-    counts.resize(v.len(), 0);
+/// complementarity. `counts` is scratch as long as `v`, all zero on entry and left so. The sweeps
+/// have converged when none changes a relative speed by more than `1e-14` of the largest
+/// approach plus `slack`; returns false if they reach [`MAX_ROUND_ITERATIONS`] first.
+pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts: &mut [u32], slack: f64) -> bool {
     let mut shared = false;
+    let mut scale = 0.0f64;
     for c in contacts.iter() {
         for i in std::iter::once(c.a).chain(c.b) {
             counts[i] += 1;
             shared |= counts[i] > 1;
         }
+        scale = scale.max(-c.normal_speed(v));
     }
-    let scale = contacts.iter().map(|c| c.target.abs()).fold(0.0, f64::max);
-    let tolerance = 1e-14 * scale;
-    let mut deltas = vec![0.0; contacts.len()];
-    for _ in 0..MAX_SIMULTANEOUS_SWEEPS {
+    let tolerance = 1e-14 * scale + slack;
+    let mut converged = false;
+    for _ in 0..MAX_ROUND_ITERATIONS {
         let mut largest = 0.0f64;
-        for (c, delta) in contacts.iter_mut().zip(deltas.iter_mut()) {
+        for c in contacts.iter_mut() {
             let vn = c.normal_speed(v);
             let ka = counts[c.a] as f64;
             let kb = c.b.map_or(0.0, |b| counts[b] as f64);
             let split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
             let impulse = (c.impulse + (c.target - vn) / split).max(0.0);
-            *delta = impulse - c.impulse;
+            c.delta = impulse - c.impulse;
             c.impulse = impulse;
-            largest = largest.max(delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
+            largest = largest.max(c.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
         }
-        for (c, &delta) in contacts.iter().zip(&deltas) {
-            v[c.a] -= (delta * c.inverse_mass_a) * c.normal;
+        for c in contacts.iter() {
+            v[c.a] -= (c.delta * c.inverse_mass_a) * c.normal;
             if let Some(b) = c.b {
-                v[b] += (delta * c.inverse_mass_b) * c.normal;
+                v[b] += (c.delta * c.inverse_mass_b) * c.normal;
             }
         }
+        // Without shared balls one sweep is the exact answer.
         if !shared || largest <= tolerance {
-            return true;
+            converged = true;
+            break;
         }
     }
-    false
+    for c in contacts.iter() {
+        for i in std::iter::once(c.a).chain(c.b) {
+            counts[i] = 0;
+        }
+    }
+    converged
 }
 
 #[cfg(test)]
@@ -94,7 +108,7 @@ mod tests {
 
     fn contact(a: usize, b: Option<usize>, normal: DVec2, target: f64) -> RoundContact {
         let inverse_mass_b = if b.is_some() { 1.0 } else { 0.0 };
-        RoundContact { a, b, normal, inverse_mass_a: 1.0, inverse_mass_b, target, impulse: 0.0 }
+        RoundContact { a, b, normal, inverse_mass_a: 1.0, inverse_mass_b, bias: 0.0, target, impulse: 0.0, delta: 0.0 }
     }
 
     /// A ball at 5 m/s into two touching balls at ±30°, e = 1: B and C leave as mirror images, A
@@ -104,8 +118,8 @@ mod tests {
         let mut v = vec![DVec2::new(5.0, 0.0), DVec2::ZERO, DVec2::ZERO];
         let (n1, n2) = (DVec2::new(0.75f64.sqrt(), 0.5), DVec2::new(0.75f64.sqrt(), -0.5));
         let mut cs = [contact(0, Some(1), n1, n1.dot(v[0])), contact(0, Some(2), n2, n2.dot(v[0]))];
-        let mut counts = Vec::new();
-        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts));
+        let mut counts = vec![0; v.len()];
+        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts, 0.0));
         assert!((v[1].x - v[2].x).abs() < 1e-14 && (v[1].y + v[2].y).abs() < 1e-14, "{v:?}");
         assert_eq!(v[0].y, 0.0);
         let energy: f64 = v.iter().map(|u| u.length_squared()).sum();
@@ -120,8 +134,8 @@ mod tests {
     fn separate_contacts_are_binary_collisions() {
         let mut v = vec![DVec2::new(2.0, 0.0), DVec2::ZERO, DVec2::new(0.0, -1.0)];
         let mut cs = [contact(0, Some(1), DVec2::X, 0.5 * 2.0), contact(2, None, DVec2::NEG_Y, 0.5)];
-        let mut counts = Vec::new();
-        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts));
+        let mut counts = vec![0; v.len()];
+        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts, 0.0));
         // Equal masses at e = 0.5: a keeps 0.5 m/s, b takes 1.5 m/s; the wall returns 0.5 m/s.
         assert_eq!((v[0].x, v[1].x, v[2].y), (0.5, 1.5, 0.5));
     }

@@ -51,7 +51,7 @@ pub use field::{Field, Wall, WallImpulses};
 pub use forces::{
     AttractionMethod, BallForces, BallProps, BodyProps, Forces, NoOtherBalls, OtherBalls, PointForce, TREE_MIN_BALLS,
 };
-pub use impact_round::{MAX_SIMULTANEOUS_SWEEPS, RoundContact, solve_simultaneous};
+pub use impact_round::{RoundContact, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

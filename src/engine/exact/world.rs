@@ -1504,13 +1504,15 @@ impl World {
                     normal,
                     inverse_mass_a: self.cold[ka].inverse_mass,
                     inverse_mass_b: self.cold[kb].inverse_mass,
+                    bias: 0.0,
                     target: if vn < 0.0 { -e_eff * vn } else { vn },
                     impulse: 0.0,
+                    delta: 0.0,
                 }
             })
             .collect();
-        let mut counts = Vec::new();
-        solve_simultaneous(&mut round, &mut v, &mut counts);
+        let mut counts = vec![0; members.len()];
+        solve_simultaneous(&mut round, &mut v, &mut counts, 0.0);
         self.counters.collisions += round.iter().filter(|c| c.impulse > 0.0).count() as u64;
         self.counters.simultaneous_rounds += 1;
         for (&m, &vm) in members.iter().zip(&v) {
