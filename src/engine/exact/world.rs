@@ -55,9 +55,9 @@
 //! comes within a time `tc` of the ball's last: that keeps a ball rattling between two held
 //! neighbours for ever, at the energy it had when its collisions came faster than `1/tc`.
 //!
-//! **Simultaneous impacts.** A fast collision of two free balls that touch, at that instant,
-//! other free balls closing on them just as fast (a ball striking two touching balls between
-//! them) is one round of simultaneous impacts, solved together as the stepped engines solve an
+//! **Simultaneous impacts.** A collision of two free balls faster than the collapse speed, while
+//! they touch other free balls closing on them faster than that (a ball striking two touching
+//! balls between them), is one round of simultaneous impacts, solved together as the stepped engines solve an
 //! impact round ([`crate::physics::solve_simultaneous`], [`World::strike_simultaneous`]):
 //! taken one after the other, the first impact would deflect the striking ball before the
 //! second, and the outcome would follow the balls' numbering. Contacts with balls at rest and
@@ -1439,8 +1439,7 @@ impl World {
                     return;
                 }
                 let h = &w.hot[k];
-                let t = w.now - h.t;
-                let d = h.x + (h.v + 0.5 * h.a * t) * t - xm;
+                let d = flight(h.x, h.v, h.a, w.now - h.t).0 - xm;
                 let reach = rm + h.r + 1e-6 * dm.min(w.cold[k].diameter);
                 found = d.length_squared() <= reach * reach && free(w, k) && w.touching(m, k) && closing_fast(w, m, k);
             });
@@ -1493,11 +1492,9 @@ impl World {
                 let (ka, kb) = (members[a], members[b]);
                 let normal = (self.hot[kb].x - self.hot[ka].x)
                     .normalize_or(coincident_normal(self.cold[ka].id, self.cold[kb].id));
+                // Every contact of the round closes faster than the collapse speed, so keeps the
+                // scene's restitution (`soft_restitution` leaves it so).
                 let vn = (v[b] - v[a]).dot(normal);
-                let e_eff = soft_restitution(e, -vn, self.params.collapse_speed);
-                if e_eff != e {
-                    self.counters.soft_collisions += 1;
-                }
                 RoundContact {
                     a,
                     b: Some(b),
@@ -1505,7 +1502,7 @@ impl World {
                     inverse_mass_a: self.cold[ka].inverse_mass,
                     inverse_mass_b: self.cold[kb].inverse_mass,
                     bias: 0.0,
-                    target: if vn < 0.0 { -e_eff * vn } else { vn },
+                    target: -e * vn,
                     impulse: 0.0,
                     delta: 0.0,
                 }
