@@ -8,8 +8,10 @@
 //! - **An elastic gas under gravity**: how fast two exact runs a rounding apart part (the
 //!   largest Lyapunov exponent λ, fitted to the growth of their distance), horizons chosen inside
 //!   it, and the stepped engines' position error at those horizons against their wall time.
-//! - **Hard-disk pressure** from the walls' gauge: `Z = P·A/(N·kT)` against Henderson's equation
-//!   of state, for the exact engine and for the lockstep engine at several dt.
+//! - **Hard-disk pressure** from the walls' gauge: `Z = P·A/(N·kT)` at packings from dilute to
+//!   dense, each extrapolated to a field without walls over three field sizes, against Henderson's
+//!   equation of state and the virial series through B₁₀ (`equation_of_state`), for the exact
+//!   engine; the lockstep engine at several dt and the threaded engine against it at η = 0.3.
 //! - **The threaded engine** on the cradle and the gas.
 
 use std::fmt::Write as _;
@@ -19,6 +21,7 @@ use std::time::Instant;
 use glam::DVec2;
 use plotters::prelude::*;
 
+use super::equation_of_state::{henderson_z, virial_z};
 use super::{AccuracyError, write_file};
 use crate::engine::lockstep::Lockstep;
 use crate::engine::{self, Engine, EngineKind, ExactEngine, Placement};
@@ -60,12 +63,6 @@ pub fn disk_gas(count: usize, packing: f64, seed: u64) -> Option<(Field, Vec<Bal
     Some((Field { width: side, height: side, restitution: 1.0 }, balls))
 }
 
-/// Henderson's equation of state for hard disks (Mol. Phys. 30, 1975):
-/// `Z = (1 + η²/8) / (1 − η)²` at packing fraction η.
-pub fn henderson_z(eta: f64) -> f64 {
-    (1.0 + eta * eta / 8.0) / ((1.0 - eta) * (1.0 - eta))
-}
-
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ManyBodyConfig {
@@ -83,7 +80,8 @@ pub struct ManyBodyConfig {
     pub z_collisions_per_ball: u64,
     /// Lockstep steps for the pressure at packing 0.3, s.
     pub z_dts: Vec<f64>,
-    /// Disks of the finite-size series at packing 0.3 (beside `z_balls`).
+    /// Disks of the finite-size series at every packing (beside `z_balls`): the bulk's Z is
+    /// extrapolated from them.
     pub z_sizes: Vec<usize>,
     /// Wall seconds of each threaded run.
     pub threaded_seconds: f64,
@@ -98,7 +96,7 @@ impl ManyBodyConfig {
             gas_dts: vec![1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5],
             z_balls: 1000,
             z_packings: vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
-            z_collisions_per_ball: 200,
+            z_collisions_per_ball: 1000,
             z_dts: vec![1e-2, 3e-3, 1e-3, 3e-4],
             z_sizes: vec![250, 4000],
             threaded_seconds: 3.0,
@@ -166,12 +164,29 @@ pub struct PressureRow {
     pub z: f64,
     /// Standard error of `z` (ten blocks of the run).
     pub z_error: f64,
-    /// Henderson's Z at that packing.
-    pub henderson: f64,
     /// Collisions measured over.
     pub collisions: u64,
     /// Wall time of the run, s.
     pub wall_seconds: f64,
+}
+
+/// The bulk's Z at one packing: the walled runs of every size fitted as
+/// `Z = Z∞ + c·(perimeter/area)` (least squares weighted by their standard errors), against the
+/// equations of state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BulkZ {
+    /// Packing fraction.
+    pub packing: f64,
+    /// Z∞: the fit's intercept.
+    pub z: f64,
+    /// Its standard error, from the runs' own.
+    pub z_error: f64,
+    /// The walls' coefficient `c`, m.
+    pub c: f64,
+    /// Henderson's Z.
+    pub henderson: f64,
+    /// The virial series through B₁₀, resummed.
+    pub virial: f64,
 }
 
 /// The whole section.
@@ -195,11 +210,11 @@ pub struct ManyBodyReport {
     pub gas: Vec<ErrorRow>,
     /// The pressure runs of the exact engine.
     pub pressure: Vec<PressureRow>,
-    /// The finite-size series at packing 0.3 (the `z_balls` run among them), and its
-    /// extrapolation to no walls: `Z = Z∞ + c·(perimeter/area)`, `(Z∞, c)`.
+    /// The finite-size series at every packing (the `z_balls` runs among them), by packing
+    /// and then size.
     pub finite_size: Vec<PressureRow>,
-    /// `(Z∞, c)` of the fit of [`ManyBodyReport::finite_size`].
-    pub z_infinite: (f64, f64),
+    /// The bulk's Z at every packing, from [`ManyBodyReport::finite_size`].
+    pub bulk: Vec<BulkZ>,
     /// The lockstep engine's Z error at packing 0.3 (relative to the exact engine's Z).
     pub pressure_lockstep: Vec<ErrorRow>,
     /// Wall time of the whole section, s.
@@ -428,7 +443,8 @@ fn measure_z(
     collisions_per_ball: u64,
 ) -> Result<(PressureRow, Vec<Ball>, Field, f64, f64), AccuracyError> {
     let per = collisions_per_ball * n as u64;
-    let (field, balls) = disk_gas(n, packing, 7).expect("a valid gas");
+    let (field, balls) = disk_gas(n, packing, 7)
+        .ok_or_else(|| AccuracyError::Problem(format!("no gas of {n} disks at packing {packing}")))?;
     let start =
         |b: &[Ball]| ExactEngine::from_parts(field, elastic(), b).map_err(|e| AccuracyError::Problem(e.to_string()));
     let mut e = start(&balls)?;
@@ -457,11 +473,47 @@ fn measure_z(
         perimeter_per_area: 2.0 * (field.width + field.height) / (field.width * field.height),
         z,
         z_error: (var / blocks.len() as f64).sqrt(),
-        henderson: henderson_z(packing),
         collisions: e.stats().counters.collisions,
         wall_seconds: wall,
     };
     Ok((row, melted, field, kinetic, e.time()))
+}
+
+/// One exact run of the pressure: `n` disks at `packing` (see [`disk_gas`], seed 7), melted
+/// for `collisions_per_ball` collisions per disk, then measured over as many.
+pub fn pressure_run(n: usize, packing: f64, collisions_per_ball: u64) -> Result<PressureRow, AccuracyError> {
+    Ok(measure_z(n, packing, collisions_per_ball)?.0)
+}
+
+/// The fit of [`BulkZ`] over runs at one packing (`None` with fewer than two sizes).
+pub fn bulk_z(packing: f64, runs: &[PressureRow]) -> Option<BulkZ> {
+    if runs.len() < 2 {
+        return None;
+    }
+    // Weighted least squares of z = Z∞ + c·x, weights 1/σ² (a σ of zero counts as the smallest
+    // other one's, so one run does not take all the weight).
+    let floor = runs.iter().map(|r| r.z_error).filter(|&e| e > 0.0).fold(f64::INFINITY, f64::min);
+    let floor = if floor.is_finite() { floor } else { 1.0 };
+    let (mut sw, mut sx, mut sxx, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for r in runs {
+        let w = 1.0 / r.z_error.max(floor).powi(2);
+        let x = r.perimeter_per_area;
+        (sw, sx, sxx, sy, sxy) = (sw + w, sx + w * x, sxx + w * x * x, sy + w * r.z, sxy + w * x * r.z);
+    }
+    let det = sw * sxx - sx * sx;
+    if det.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let c = (sw * sxy - sx * sy) / det;
+    let z = (sy - c * sx) / sw;
+    Some(BulkZ {
+        packing,
+        z,
+        z_error: (sxx / det).sqrt(),
+        c,
+        henderson: henderson_z(packing),
+        virial: virial_z(packing),
+    })
 }
 
 fn run_pressure(
@@ -475,8 +527,17 @@ fn run_pressure(
         let (row, melted, field, kinetic, span) = measure_z(n, packing, config.z_collisions_per_ball)?;
         let (z, wall, spread) = (row.z, row.wall_seconds, row.z_error / row.z);
         report.pressure.push(row.clone());
+        let mut sizes = vec![row];
+        for &size in &config.z_sizes {
+            progress(&format!("pressure: {size} disks at packing {packing}"));
+            sizes.push(pressure_run(size, packing, config.z_collisions_per_ball)?);
+        }
+        sizes.sort_by_key(|r| r.balls);
+        if let Some(bulk) = bulk_z(packing, &sizes) {
+            report.bulk.push(bulk);
+        }
+        report.finite_size.extend(sizes);
         if (packing - 0.3).abs() < 1e-9 {
-            report.finite_size.push(row);
             // The exact engine's own uncertainty is statistical: the standard error of its Z.
             report.pressure_lockstep.push(ErrorRow {
                 engine: "exact",
@@ -542,20 +603,6 @@ fn run_pressure(
             });
         }
     }
-    for &size in &config.z_sizes {
-        progress(&format!("pressure: {size} disks at packing 0.3"));
-        report.finite_size.push(measure_z(size, 0.3, config.z_collisions_per_ball)?.0);
-    }
-    report.finite_size.sort_by_key(|r| r.balls);
-    let pts: Vec<(f64, f64)> = report.finite_size.iter().map(|r| (r.perimeter_per_area, r.z)).collect();
-    if pts.len() >= 2 {
-        let n = pts.len() as f64;
-        let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
-        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-        let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
-        let c = sxy / sxx;
-        report.z_infinite = (my - c * mx, c);
-    }
     Ok(())
 }
 
@@ -575,7 +622,7 @@ pub fn run(config: &ManyBodyConfig, mut progress: impl FnMut(&str)) -> Result<Ma
         gas: Vec::new(),
         pressure: Vec::new(),
         finite_size: Vec::new(),
-        z_infinite: (0.0, 0.0),
+        bulk: Vec::new(),
         pressure_lockstep: Vec::new(),
         total_seconds: 0.0,
     };
@@ -725,49 +772,54 @@ impl ManyBodyReport {
     /// The pressure's part of [`ManyBodyReport::markdown`].
     fn markdown_pressure(&self, s: &mut String) {
         let _ = writeln!(s, "\n## Hard-disk pressure from the walls' gauge\n");
+        let sizes: Vec<String> = std::iter::once(self.config.z_balls)
+            .chain(self.config.z_sizes.iter().copied())
+            .map(|n| n.to_string())
+            .collect();
         let _ = writeln!(
             s,
-            "{} disks, e = 1, no gravity, melted for {} collisions per disk, then measured over as many: `Z = P·A/(N·kT)` with P \
-             the walls' total impulse per second per metre of wall, A the field's area and N·kT the kinetic energy (2D). \
-             Henderson (1975): `Z = (1 + η²/8)/(1 − η)²`. The field's walls are part of the system: the density next to a \
-             wall is not the bulk's, which shows as a difference of order (perimeter × diameter)/area from the bulk's Z.\n",
-            self.config.z_balls, self.config.z_collisions_per_ball
+            "Disks of 1 m, e = 1, no gravity, in a square field with elastic walls, melted for {c} collisions per disk \
+             from a lattice, then measured over as many: `Z = P·A/(N·kT)` with P the walls' total impulse per second per \
+             metre of wall, A the field's area and N·kT the kinetic energy (2D). The walls are part of the system: the \
+             density next to a wall is not the bulk's, which shows as a difference of order (perimeter × diameter)/area. \
+             So every packing runs in fields of {sizes} disks, and the bulk's Z∞ is the fit `Z = Z∞ + c·(perimeter/area)` \
+             over them (weighted by their standard errors over ten blocks). Against: Henderson (1975), \
+             `Z = (1 + η²/8)/(1 − η)²`, and the virial series through B₁₀ (Clisby & McCoy 2006), resummed over \
+             `(1 − η)²` as Henderson's is (`src/accuracy/equation_of_state.rs`): the dense fluid's reference, with a \
+             truncation of about 3e-5 of Z at η = 0.6.\n",
+            c = self.config.z_collisions_per_ball,
+            sizes = sizes.join(", ")
         );
         let _ = writeln!(
             s,
-            "| packing η | Z (exact, walls) | ± (10 blocks) | Henderson | difference | collisions | wall (s) |"
+            "| packing η | Z, {} disks (walls) | bulk Z∞ | ± | virial B₂–B₁₀ | Z∞ − virial | Henderson | Z∞ − Henderson |",
+            self.config.z_balls
         );
-        let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|");
-        for r in &self.pressure {
+        let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for b in &self.bulk {
+            let walled = self.pressure.iter().find(|r| r.packing == b.packing).map_or(f64::NAN, |r| r.z);
             let _ = writeln!(
                 s,
-                "| {:.2} | {:.4} | {:.4} | {:.4} | {:+.2} % | {} | {:.2} |",
-                r.packing,
-                r.z,
-                r.z_error,
-                r.henderson,
-                100.0 * (r.z - r.henderson) / r.henderson,
-                r.collisions,
-                r.wall_seconds
+                "| {:.2} | {:.4} | **{:.4}** | {:.4} | {:.4} | {:+.2} % | {:.4} | {:+.2} % |",
+                b.packing,
+                walled,
+                b.z,
+                b.z_error,
+                b.virial,
+                100.0 * (b.z - b.virial) / b.virial,
+                b.henderson,
+                100.0 * (b.z - b.henderson) / b.henderson,
             );
         }
-        if self.finite_size.len() >= 2 {
-            let _ = writeln!(
-                s,
-                "\nThe walls' share at η = 0.3: Z against the field's perimeter over its area, fitted as `Z = Z∞ + c·(perimeter/area)`: \
-                 **Z∞ = {:.4}** (c = {:.3} m), Henderson {:.4} ({:+.2} %).\n",
-                self.z_infinite.0,
-                self.z_infinite.1,
-                henderson_z(0.3),
-                100.0 * (self.z_infinite.0 - henderson_z(0.3)) / henderson_z(0.3)
-            );
-            let _ = writeln!(s, "| disks | perimeter/area (1/m) | Z | ± | collisions | wall (s) |");
-            let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|");
+        if !self.finite_size.is_empty() {
+            let _ = writeln!(s, "\nThe runs the fits are made of:\n");
+            let _ = writeln!(s, "| packing η | disks | perimeter/area (1/m) | Z | ± | collisions | wall (s) |");
+            let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|");
             for r in &self.finite_size {
                 let _ = writeln!(
                     s,
-                    "| {} | {:.4} | {:.4} | {:.4} | {} | {:.2} |",
-                    r.balls, r.perimeter_per_area, r.z, r.z_error, r.collisions, r.wall_seconds
+                    "| {:.2} | {} | {:.4} | {:.4} | {:.4} | {} | {:.2} |",
+                    r.packing, r.balls, r.perimeter_per_area, r.z, r.z_error, r.collisions, r.wall_seconds
                 );
             }
         }

@@ -7,6 +7,7 @@
 //! table and writes it as CSV, a log-log plot of error against cost, and a Markdown summary.
 
 pub mod analytic;
+pub mod equation_of_state;
 mod fit;
 pub mod many_body;
 mod plot;
