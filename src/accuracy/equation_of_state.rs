@@ -10,7 +10,7 @@
 //!   `(1 − η)²` is a polynomial whose coefficients fall off fast (from 0.128 at η² to −0.009 at
 //!   η⁹), so `Z = N(η)/(1 − η)²` with `N` that polynomial through η⁹. Its Taylor series is the
 //!   virial series through the tenth coefficient exactly; the part of `N` left out is of order
-//!   `c₉·η¹⁰`, about 3e-5 of Z at η = 0.6. This is the dense-fluid reference (the fluid ends at the
+//!   `c₉·η¹⁰`, about 5e-5 of Z at η = 0.6. This is the dense-fluid reference (the fluid ends at the
 //!   liquid–hexatic transition near η = 0.70).
 
 /// `B_k / B₂^(k−1)` of hard disks for k = 2..=10 (Clisby & McCoy 2006, Table 1, dimension 2).

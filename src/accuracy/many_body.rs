@@ -786,7 +786,7 @@ impl ManyBodyReport {
              over them (weighted by their standard errors over ten blocks). Against: Henderson (1975), \
              `Z = (1 + η²/8)/(1 − η)²`, and the virial series through B₁₀ (Clisby & McCoy 2006), resummed over \
              `(1 − η)²` as Henderson's is (`src/accuracy/equation_of_state.rs`): the dense fluid's reference, with a \
-             truncation of about 3e-5 of Z at η = 0.6.\n",
+             truncation of about 5e-5 of Z at η = 0.6.\n",
             c = self.config.z_collisions_per_ball,
             sizes = sizes.join(", ")
         );

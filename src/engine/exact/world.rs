@@ -1547,8 +1547,9 @@ impl World {
     /// ([`crate::physics::solve_simultaneous`]) until no contact closes. A ball dropped on a ball
     /// lying on the floor rebounds as the chain of binary impacts says (at e = 0.8, 2.83 m/s from
     /// 4.43 m/s, where holding the struck ball immovable gives e·v = 3.54 m/s). The struck ball
-    /// then wakes if it leaves every wall it lies on faster than its rest speed, or stays at rest
-    /// and passes on what it kept; every impulse on a wall goes on its gauge.
+    /// then wakes if it leaves faster than its rest speed (free, or sliding along a wall it is
+    /// pressed against), or stays at rest and passes on what it kept; every impulse on a wall
+    /// goes on its gauge.
     ///
     /// Only for a ball at rest that touches no other ball at rest: a ball in a pile stays held
     /// immovable, its pile passing the impulse on to the walls (the rest model). Struck through
@@ -1593,7 +1594,10 @@ impl World {
                 impulse: 0.0,
                 delta: 0.0,
             };
-        // Ball 0 strikes ball 1; ball 1's walls are immovable (the normal from it to the wall).
+        // Ball 0 strikes ball 1; ball 1's walls are immovable (the normal from the ball to the
+        // wall). The striker's own walls are left to their events at this instant: with them in
+        // the rounds, the 150-ball pile of `tests/exact_pile.rs` at e = 0.9 (seed 6) ground on
+        // more than 2e7 events in a half second.
         let mut contacts =
             vec![(contact(0, Some(1), normal, self.cold[free].inverse_mass, self.cold[resting].inverse_mass), e_balls)];
         for (k, inward) in WALL_NORMALS.iter().enumerate() {
@@ -1608,7 +1612,7 @@ impl World {
         let mut counts = [0u32; 2];
         // A contact closing by less than a few roundings of the speeds is not struck again.
         let slack = 4.0 * f64::EPSILON * v[0].length();
-        let mut struck = 0u64;
+        let (mut struck, mut bounced) = (0u64, 0u64);
         for _ in 0..MAX_REST_STRIKE_ROUNDS {
             round.clear();
             these.clear();
@@ -1626,7 +1630,12 @@ impl World {
             solve_simultaneous(&mut these, &mut v, &mut counts, 0.0);
             for (&k, c) in round.iter().zip(&these) {
                 total[k] += c.impulse;
-                struck += u64::from(c.impulse > 0.0);
+                if c.impulse > 0.0 {
+                    match c.b {
+                        Some(_) => struck += 1,
+                        None => bounced += 1,
+                    }
+                }
             }
         }
         for ((c, _), &lambda) in contacts.iter().zip(&total) {
@@ -1635,17 +1644,27 @@ impl World {
             }
         }
         self.counters.collisions += struck;
+        self.counters.wall_bounces += bounced;
         self.counters.rest_strikes += 1;
         self.hot[free].v = v[0];
         let a = self.free_accel(resting).length();
-        let leaves_walls = contacts.iter().all(|(c, _)| c.b.is_some() || v[1].dot(c.normal) < 0.0);
-        if leaves_walls && v[1].length() >= self.rest_speed(resting, a) {
-            // Free (not sliding: it leaves every wall it touches) at its new velocity.
+        if v[1].length() >= self.rest_speed(resting, a) {
+            // Free, or sliding on a wall it is pressed against and moves along (a ball knocked
+            // sideways along the floor); free once it leaves that wall.
             self.wake(resting);
-            if self.cold[resting].motion != Motion::Free {
-                self.end_static(resting);
+            let mut v1 = v[1];
+            if let Motion::Sliding(w) = self.cold[resting].motion {
+                let inward = WALL_NORMALS[w as usize];
+                if v1.dot(inward) > slack {
+                    self.end_static(resting);
+                } else {
+                    // The wall takes what is left of the normal part (rounding).
+                    let normal_part = v1.dot(inward) * inward;
+                    transmit(&mut self.impulses, self.cold[resting].mass * normal_part);
+                    v1 -= normal_part;
+                }
             }
-            self.hot[resting].v = v[1];
+            self.hot[resting].v = v1;
             self.restart_course(resting);
         } else {
             transmit(&mut self.impulses, self.cold[resting].mass * v[1]);
