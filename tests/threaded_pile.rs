@@ -172,7 +172,7 @@ fn a_settled_pile_stays_at_rest_and_its_floor_carries_it() {
 }
 
 /// The small pile, dropped on the threaded runtime from 4 to 20 m, left for 8.5 s and watched
-/// for six stretches of half a second (to about 11.5 s): its floor takes its weight within 5 %,
+/// for ten stretches of half a second (to about 13.5 s): its floor takes its weight within 5 %,
 /// no two balls overlap by more than 2 % of a diameter, and it comes to rest: at least one of
 /// the six reads has its kinetic energy below that of every ball at 1 mm/s (a player sees
 /// 5 cm/s). Lockstep's figures on the scene, its mirror image and with its balls renumbered are
@@ -185,8 +185,10 @@ fn a_settled_pile_stays_at_rest_and_its_floor_carries_it() {
 /// slid, 1.5e-2 J still at 11.5 s. On the threaded runtime (30 runs, an idle 2-core machine) 6
 /// had a read above it, the highest 2.8e-2 J, and every run had reads below it: the lowest read of
 /// a run was 2e-12 to 2.5e-6 J. Two of about twenty CI runs failed the earlier bound on the last
-/// read alone (9.2e-4 J at 11.5 s, decaying). The settled pile's test above holds the threaded
-/// pile's steady state to lockstep's.
+/// read alone (9.2e-4 J at 11.5 s, decaying), and one (2026-12-02) had all six reads of a watch
+/// to 11.5 s above this one (lowest 2.9e-4 J: its heap slid, 4.9e-2 J at 11 s, 3.0e-4 J at
+/// 11.5 s, decaying), so the watch goes on to 13.5 s. The settled pile's test above holds the
+/// threaded pile's steady state to lockstep's.
 ///
 /// Seen to fail with the responses in flight left out of the state a pass solves from: floor
 /// 1,196 times the weight, overlaps of 94 %, 4e7 J.
@@ -194,7 +196,7 @@ fn a_settled_pile_stays_at_rest_and_its_floor_carries_it() {
 fn a_dropped_pile_comes_to_rest_and_its_floor_carries_it() {
     let _serial = serial();
     let scene = common::small_pile();
-    let f = run(&scene, Duration::from_millis(8500), Duration::from_millis(500), 6);
+    let f = run(&scene, Duration::from_millis(8500), Duration::from_millis(500), 10);
     let &(t, _) = f.kinetic.last().unwrap();
     let end = f.began + t;
     let lowest = f.kinetic.iter().map(|&(_, k)| k).fold(f64::INFINITY, f64::min);
