@@ -36,7 +36,7 @@ use std::fmt::Write as _;
 use std::sync::Mutex;
 
 use ballfield::engine::{self, Engine, EngineKind};
-use ballfield::physics::Ball;
+use ballfield::physics::{Ball, WallImpulses};
 use ballfield::scene::{Origin, Scene};
 use glam::DVec2;
 
@@ -114,6 +114,8 @@ struct End {
     balls: Vec<Ball>,
     time: f64,
     walls: f64,
+    /// Each wall's impulse.
+    gauges: WallImpulses,
 }
 
 /// Runs `scene` on `kind` to simulated time `t`, stops it and reads it.
@@ -123,7 +125,8 @@ fn run(kind: EngineKind, scene: &Scene, t: f64) -> End {
     e.quiesce();
     let mut balls = Vec::new();
     e.sample(&mut balls);
-    let end = End { balls, time: e.time(), walls: e.wall_impulses().total() };
+    let gauges = e.wall_impulses();
+    let end = End { balls, time: e.time(), walls: gauges.total(), gauges };
     e.shutdown();
     assert_eq!(end.balls.len(), scene.balls.len(), "{kind}: every ball is still on the field");
     end
@@ -448,14 +451,7 @@ fn drop_sweep(kind: EngineKind, bound: f64, balance_bound: Option<f64>, b_bound:
     let at = |e: f64, ma: f64, mb: f64, x: f64, failures: &mut Vec<String>| {
         let start = [spec([x, contact_y + fall], [0.0, 0.0], ma, 1.0), spec([x, 0.5], [0.0, 0.0], mb, 1.0)];
         let s = scene(10.0, 20.0, e, e, true, LEAPFROG, &start);
-        let mut engine: Box<dyn Engine> = engine::start(kind, &s, Some(1)).unwrap();
-        engine.advance_to(t_impact + 5e-3);
-        engine.quiesce();
-        let mut balls = Vec::new();
-        engine.sample(&mut balls);
-        let walls = engine.wall_impulses();
-        let time = engine.time();
-        engine.shutdown();
+        let End { balls, time, gauges: walls, .. } = run(kind, &s, t_impact + 5e-3);
         let a = &balls[0];
         let measured = (a.velocity.y * a.velocity.y + 2.0 * G * (a.position.y - contact_y)).max(0.0).sqrt();
         let (chain, chain_b) = sequential_impacts_of_both(-(2.0 * G * fall).sqrt(), 0.0, ma, mb, e, e);
@@ -577,13 +573,7 @@ fn exact_oblique_strike_on_a_resting_ball_is_the_chain() {
     for e_wall in [0.0, 0.8] {
         let start = [spec([5.0 - offset, drop_y + fall], [0.0, 0.0], 1.0, d), spec([5.0, 0.5], [0.0, 0.0], 1.0, d)];
         let s = scene(10.0, 20.0, e_wall, 0.8, true, LEAPFROG, &start);
-        let mut engine: Box<dyn Engine> = engine::start(EngineKind::Exact, &s, Some(1)).unwrap();
-        engine.advance_to(t_impact + delta);
-        let mut balls = Vec::new();
-        engine.sample(&mut balls);
-        let walls = engine.wall_impulses();
-        let time = engine.time();
-        engine.shutdown();
+        let End { balls, time, gauges: walls, .. } = run(EngineKind::Exact, &s, t_impact + delta);
         let n = DVec2::new(offset, -(d * d - offset * offset).sqrt()) / d;
         let (va, vb) =
             sequential_impacts_2d((DVec2::new(0.0, -G * t_impact), DVec2::ZERO), (1.0, 1.0), n, (0.8, e_wall));

@@ -45,6 +45,12 @@ pub struct RoundContact {
 }
 
 impl RoundContact {
+    /// A contact of ball `a` with ball `b` (or an immovable support) along `normal`, no bias, its
+    /// target and impulse zero (the caller sets the target before a round).
+    pub fn new(a: usize, b: Option<usize>, normal: DVec2, inverse_mass_a: f64, inverse_mass_b: f64) -> Self {
+        RoundContact { a, b, normal, inverse_mass_a, inverse_mass_b, bias: 0.0, target: 0.0, impulse: 0.0, delta: 0.0 }
+    }
+
     /// The normal speed with its bias.
     #[inline(always)]
     fn normal_speed(&self, v: &[DVec2]) -> f64 {

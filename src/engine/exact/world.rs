@@ -1506,15 +1506,8 @@ impl World {
                 // scene's restitution (`soft_restitution` leaves it so).
                 let vn = (v[b] - v[a]).dot(normal);
                 RoundContact {
-                    a,
-                    b: Some(b),
-                    normal,
-                    inverse_mass_a: self.cold[ka].inverse_mass,
-                    inverse_mass_b: self.cold[kb].inverse_mass,
-                    bias: 0.0,
                     target: -e * vn,
-                    impulse: 0.0,
-                    delta: 0.0,
+                    ..RoundContact::new(a, Some(b), normal, self.cold[ka].inverse_mass, self.cold[kb].inverse_mass)
                 }
             })
             .collect();
@@ -1582,18 +1575,7 @@ impl World {
         let xf = self.hot[free].x;
         let normal = (xr - xf).normalize_or(coincident_normal(self.cold[free].id, self.cold[resting].id));
         let e_balls = self.effects.collisions.map_or(1.0, |c| c.restitution);
-        let contact =
-            |a: usize, b: Option<usize>, normal: DVec2, inverse_mass_a: f64, inverse_mass_b: f64| RoundContact {
-                a,
-                b,
-                normal,
-                inverse_mass_a,
-                inverse_mass_b,
-                bias: 0.0,
-                target: 0.0,
-                impulse: 0.0,
-                delta: 0.0,
-            };
+        let contact = RoundContact::new;
         // Ball 0 strikes ball 1; ball 1's walls are immovable (the normal from the ball to the
         // wall). The striker's own walls are left to their events at this instant: with them in
         // the rounds, the 150-ball pile of `tests/exact_pile.rs` at e = 0.9 (seed 6) ground on
