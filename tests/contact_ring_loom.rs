@@ -23,7 +23,7 @@ mod sync {
 }
 
 mod message {
-    pub use ballfield::runtime::Contact;
+    pub use ballfield::runtime::{Contact, Rest};
 }
 
 #[allow(dead_code)]
@@ -34,12 +34,18 @@ use contact_ring::{ContactRing, RingWriter};
 use glam::DVec2;
 use loom::sync::Arc;
 use loom_model::model;
-use message::Contact;
+use message::{Contact, Rest};
 
 /// Response number `k`: every word a different function of `k`, so a torn one is recognised.
 fn response(k: u64) -> Contact {
     let f = k as f64;
-    Contact { dv: DVec2::new(f + 0.5, -f), dx: DVec2::new(0.25 * f, 2.0 * f), stamp: 10 * k + 3, apply_at: 10 * k + 1 }
+    Contact {
+        dv: DVec2::new(f + 0.5, -f),
+        dx: DVec2::new(0.25 * f, 2.0 * f),
+        stamp: 10 * k + 3,
+        apply_at: 10 * k + 1,
+        rest: Rest::from_word(k % 3),
+    }
 }
 
 /// On one thread: responses come out in order, and a full ring refuses a push until the

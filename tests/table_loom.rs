@@ -62,6 +62,7 @@ fn record(k: u64) -> BallRecord {
         wall_impulses: WallImpulses { left: 8.0 * f, right: 9.0 * f, bottom: 10.0 * f, top: 11.0 * f },
         time: 12 * k,
         acceleration: DVec2::new(13.0 * f, 14.0 * f),
+        asleep: k % 3 == 1,
     }
 }
 

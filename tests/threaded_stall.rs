@@ -158,7 +158,8 @@ fn a_stall_of_the_whole_process_leaves_a_resting_stack_as_it_was() {
 #[test]
 fn a_stalled_ball_in_a_stack_stays_where_the_stack_holds_it() {
     let _serial = serial();
-    let rt = Runtime::start(&stack_scene(), RuntimeConfig::default()).unwrap();
+    // The stack kept awake: asleep, it gets no responses to pile up.
+    let rt = Runtime::start(&stack_scene(), RuntimeConfig { sleep: false, ..RuntimeConfig::default() }).unwrap();
     std::thread::sleep(Duration::from_millis(300));
     assert!(rt.settle(Duration::from_secs(5)));
     let before = rt.snapshot();

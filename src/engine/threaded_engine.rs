@@ -14,12 +14,14 @@ use crate::physics::{AttractionMethod, Ball, BallId, Diagnostics, Effects, Field
 use crate::scene::Scene;
 
 /// The runtime configuration a scene asks for. `BALLFIELD_BALL_WAIT=sleep` makes the ball threads
-/// always sleep between cycles, never yield (to measure what yielding gains).
+/// always sleep between cycles, never yield (to measure what yielding gains); `BALLFIELD_SLEEP=off`
+/// keeps every ball awake (to measure what sleeping islands gain).
 pub fn runtime_config(scene: &Scene) -> RuntimeConfig {
     RuntimeConfig {
         ball_cycle: Duration::from_secs_f64(scene.ball_cycle),
         max_balls: scene.max_balls,
         yield_when_crowded: std::env::var("BALLFIELD_BALL_WAIT").map_or(true, |v| v != "sleep"),
+        sleep: std::env::var("BALLFIELD_SLEEP").map_or(true, |v| v != "off"),
         ..RuntimeConfig::default()
     }
 }

@@ -215,6 +215,13 @@ impl RunReport {
                 st.messages_dropped,
                 st.threads_panicked
             );
+            if st.balls_slept > 0 {
+                let _ = writeln!(
+                    s,
+                    "sleep        {} balls asleep at the end; {} times put to sleep, {} woken",
+                    st.balls_asleep, st.balls_slept, st.balls_woken
+                );
+            }
             if st.speed_limited + st.drag_limited > 0 {
                 let _ = writeln!(
                     s,

@@ -146,6 +146,8 @@ pub struct BallResponse {
     /// (a response of resting contacts alone acts at the end of the span: the state the solve
     /// found them in).
     pub instant: f64,
+    /// Whether an impact struck the ball in the span.
+    pub struck: bool,
 }
 
 /// What one call did.
@@ -975,6 +977,26 @@ impl ContactSolver {
         &self.responses
     }
 
+    /// Each wall impulse of the last solve (impact and resting, as the gauges take them):
+    /// `f(ball, wall, impulse)`, the ball by its index in the solve's balls.
+    pub fn for_each_wall_impulse(&self, mut f: impl FnMut(usize, Wall, f64)) {
+        for c in self.lists.iter().flatten().filter(|c| c.is_wall()) {
+            let j = c.impact + if c.active { c.impulse } else { 0.0 };
+            if j > 0.0 {
+                f(c.a as usize, c.wall, j);
+            }
+        }
+    }
+
+    /// Each contact touching at the end of the last solve (its resting phase's active
+    /// contacts): `f(a, None)` for a wall of ball `a`, `f(a, Some(b))` for a pair, by their
+    /// indices in the solve's balls.
+    pub fn for_each_touching(&self, mut f: impl FnMut(usize, Option<usize>)) {
+        for c in self.lists.iter().flatten().filter(|c| c.active) {
+            f(c.a as usize, (!c.is_wall()).then_some(c.b as usize));
+        }
+    }
+
     /// Solves every contact of `balls` over the span (see the module comment). `pairs` are
     /// candidate pairs as indices into `balls`, each unordered pair at most once; pairs with an
     /// index out of range, or a ball with a non-finite state, non-positive radius or inverse mass,
@@ -1013,6 +1035,7 @@ impl ContactSolver {
                 velocity_change: self.velocity[i] - b.velocity,
                 shift: self.position[i] - b.position,
                 instant,
+                struck: self.impact.struck(i),
             });
         }
         tally

@@ -17,6 +17,7 @@ mod field;
 mod forces;
 mod impact_round;
 mod integrator;
+mod sleep;
 mod step_policy;
 mod sweep;
 
@@ -53,5 +54,6 @@ pub use forces::{
 };
 pub use impact_round::{RoundContact, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
+pub use sleep::{Islands, TIME_TO_SLEEP, is_quiet, sleep_speed};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

@@ -19,7 +19,7 @@ use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
 use super::contact_ring::ContactRing;
-use super::message::{Contact, Message, clock_seconds};
+use super::message::{Contact, Message, Rest, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use crate::physics::Field;
@@ -67,6 +67,9 @@ struct BallState {
     direct_cycles: u64,
     /// This ball's longest cycle so far, as `Shared::pack_cycle` packs it.
     longest_cycle: u64,
+    /// Whether the monitor has put the ball to sleep (see [`Rest`]): its cycles then move the
+    /// clock on and nothing else, until a wake.
+    asleep: bool,
 }
 
 /// What a ball thread reuses from cycle to cycle, so that a cycle allocates nothing.
@@ -120,6 +123,7 @@ impl BallState {
                 wall_impulses: self.walls,
                 time: self.time,
                 acceleration: gravity + self.pull / self.ball.mass,
+                asleep: self.asleep,
             },
         );
     }
@@ -208,6 +212,7 @@ pub(crate) fn run_ball(
         tree_cycles: 0,
         direct_cycles: 0,
         longest_cycle: 0,
+        asleep: false,
     };
     let params: Params = shared.params.read().clone();
     // Acquire pairs with the Release increment in `Shared::update_params`: seeing the new
@@ -433,6 +438,11 @@ fn catch_up(
     let mut source = AttractionSource::Off;
     let (from, mut substeps) = (state.time, 0);
     let mut cross = |state: &mut BallState, to: u64, source: &mut AttractionSource, substeps: &mut u64| {
+        if state.asleep {
+            // Held still: only the clock moves on.
+            state.time = state.time.max(to);
+            return;
+        }
         for (a, b) in grid.pieces(state.time, to) {
             let taken;
             (*source, taken) =
@@ -460,6 +470,11 @@ fn catch_up(
             // differ by (micrometres, after a long starvation), which the wall holds.
             let radius = state.ball.radius();
             hold_inside(&mut state.ball.position, radius, &params.field);
+        }
+        match m.rest {
+            Rest::Unchanged => {}
+            Rest::Sleep => state.asleep = true,
+            Rest::Wake => state.asleep = false,
         }
     }
     cross(state, grid.at_or_before(target), &mut source, &mut substeps);

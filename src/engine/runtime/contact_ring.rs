@@ -38,7 +38,7 @@
 //! read: a response is never read torn. A slot's `seq` from an older lap (`next + 1 − cap`) or
 //! zero reads as empty.
 
-use super::message::Contact;
+use super::message::{Contact, Rest};
 // The atomics come from the parent module: std's here, loom's when `tests/contact_ring_loom.rs`
 // compiles this very file into a loom model.
 use super::sync::{AtomicU64, Ordering};
@@ -49,11 +49,11 @@ use super::sync::{AtomicU64, Ordering};
 /// channel's sends take 4.9 % of the monitor's time, with 128 3.5 %, with 256 0.05 %.
 pub(crate) const RING_SLOTS: usize = 256;
 
-/// One response: `seq` (0, or the response's number + 1) and its six words.
+/// One response: `seq` (0, or the response's number + 1) and its seven words.
 #[repr(align(64))] // one slot per cache line
 struct RingSlot {
     seq: AtomicU64,
-    words: [AtomicU64; 6],
+    words: [AtomicU64; 7],
 }
 
 /// The consumer's counts on a cache line of their own: it writes them, and the producer, which
@@ -111,7 +111,15 @@ impl<const N: usize> ContactRing<N> {
             }
         }
         let slot = &self.slots[(k & Self::MASK) as usize];
-        let words = [m.dv.x.to_bits(), m.dv.y.to_bits(), m.dx.x.to_bits(), m.dx.y.to_bits(), m.stamp, m.apply_at];
+        let words = [
+            m.dv.x.to_bits(),
+            m.dv.y.to_bits(),
+            m.dx.x.to_bits(),
+            m.dx.y.to_bits(),
+            m.stamp,
+            m.apply_at,
+            m.rest.word(),
+        ];
         for (word, value) in slot.words.iter().zip(words) {
             // Relaxed: published by the Release store of `seq` below.
             word.store(value, Ordering::Relaxed);
@@ -130,13 +138,14 @@ impl<const N: usize> ContactRing<N> {
             return None;
         }
         // Relaxed: ordered after the Acquire load above.
-        let w: [u64; 6] = std::array::from_fn(|i| slot.words[i].load(Ordering::Relaxed));
+        let w: [u64; 7] = std::array::from_fn(|i| slot.words[i].load(Ordering::Relaxed));
         *next += 1;
         Some(Contact {
             dv: glam::DVec2::new(f64::from_bits(w[0]), f64::from_bits(w[1])),
             dx: glam::DVec2::new(f64::from_bits(w[2]), f64::from_bits(w[3])),
             stamp: w[4],
             apply_at: w[5],
+            rest: Rest::from_word(w[6]),
         })
     }
 

@@ -65,6 +65,46 @@ pub struct Contact {
     pub stamp: u64,
     /// The earliest instant the ball applies it (runtime clock, ns).
     pub apply_at: u64,
+    /// Whether the ball sleeps or wakes at `stamp` (see [`Rest`]).
+    pub rest: Rest,
+}
+
+/// What a contact message does to a ball's sleep (see `physics::sleep`). The monitor alone puts
+/// balls to sleep and wakes them, each at the edge of a span it judged, so that no ball sleeps or
+/// wakes inside a span whose contacts were judged the other way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Rest {
+    /// Neither.
+    #[default]
+    Unchanged,
+    /// From `stamp` on the ball is held still: its thread stops integrating it (the clock goes
+    /// on), and the message's `dv` is minus the velocity the monitor carried the ball to (so the
+    /// ball stops exactly when its motion was the monitor's to the bit; a velocity a throw set
+    /// since is kept, and the monitor then wakes the ball). Applied at `stamp` only.
+    Sleep,
+    /// From `stamp` on the ball moves again, from where it was held, with its velocity and its
+    /// uniform acceleration. A wake moves nothing itself (`dv` and `dx` are zero).
+    Wake,
+}
+
+impl Rest {
+    /// The message word for the ring.
+    pub fn word(self) -> u64 {
+        match self {
+            Rest::Unchanged => 0,
+            Rest::Sleep => 1,
+            Rest::Wake => 2,
+        }
+    }
+
+    /// The rest of a ring word (what `word` wrote; anything else reads as `Unchanged`).
+    pub fn from_word(w: u64) -> Self {
+        match w {
+            1 => Rest::Sleep,
+            2 => Rest::Wake,
+            _ => Rest::Unchanged,
+        }
+    }
 }
 
 impl Contact {

@@ -17,6 +17,7 @@ mod contact_ring;
 mod message;
 mod monitor;
 mod shared;
+mod sleep;
 mod table;
 
 /// What [`table`] and [`contact_ring`] are built on. `tests/table_loom.rs` and
@@ -38,7 +39,7 @@ use glam::DVec2;
 use parking_lot::{Mutex, RwLock};
 use serde::Serialize;
 
-pub use message::{Contact, Message};
+pub use message::{Contact, Message, Rest};
 pub use shared::{Params, RuntimeConfig};
 pub use table::{BallRecord, BallTable};
 
@@ -124,6 +125,13 @@ pub struct RuntimeStats {
     pub judged_drift_max: f64,
     /// Contact responses applied after the instant they were for (see `Shared::responses_late`).
     pub responses_late: u64,
+    /// Balls asleep after the monitor's last pass (at rest, left out of its solve and held still
+    /// by their threads; see `physics::sleep`).
+    pub balls_asleep: u64,
+    /// How many times the monitor put a ball to sleep over the run.
+    pub balls_slept: u64,
+    /// How many times it woke one.
+    pub balls_woken: u64,
     /// Messages that could not be delivered (their ball's thread was gone). Must be 0.
     pub messages_dropped: u64,
     /// Contact responses sent by the ball's channel because its ring was full (a ball starved of
@@ -306,6 +314,7 @@ impl Runtime {
                 wall_impulses: WallImpulses::default(),
                 time,
                 acceleration: gravity,
+                asleep: false,
             };
             self.shared.table.write(slot, &record);
             if slot >= high {
@@ -619,6 +628,9 @@ impl Runtime {
             horizon_waits: self.shared.horizon_waits.load(Ordering::Relaxed),
             judged_drift_max: f64::from_bits(self.shared.judged_drift_max.load(Ordering::Relaxed)),
             responses_late: self.shared.responses_late.load(Ordering::Relaxed),
+            balls_asleep: self.shared.balls_asleep.load(Ordering::Relaxed),
+            balls_slept: self.shared.balls_slept.load(Ordering::Relaxed),
+            balls_woken: self.shared.balls_woken.load(Ordering::Relaxed),
             messages_dropped: self.shared.messages_dropped.load(Ordering::Relaxed),
             responses_by_channel: self.shared.responses_by_channel.load(Ordering::Relaxed),
             speed_limited: self.shared.speed_limited.load(Ordering::Relaxed),

@@ -58,13 +58,14 @@ use parking_lot::RwLock;
 use super::attraction_tree::TreePublisher;
 use super::ball_thread::hold_inside;
 use super::contact_ring::{ContactRing, RingWriter};
-use super::message::{Contact, Grid, Message, clock_seconds};
+use super::message::{Contact, Grid, Message, Rest, clock_seconds};
 use super::shared::{Params, Shared};
+use super::sleep::{SleepBook, wall_index};
 use super::table::BallRecord;
 use crate::physics::{
     Attraction, AttractionMethod, Ball, BallProps, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag,
-    DragRateBound, Effects, Field, Forces, Integrator, IntegratorScratch, NoOtherBalls, SolverBall, SpanRates,
-    StepPolicy, TREE_MIN_BALLS, WallImpulses, advance_ball, resting_drift, swept_circle,
+    DragRateBound, Effects, Field, Forces, Integrator, IntegratorScratch, Islands, NoOtherBalls, SolverBall, SpanRates,
+    StepPolicy, TIME_TO_SLEEP, TREE_MIN_BALLS, WallImpulses, advance_ball, is_quiet, resting_drift, swept_circle,
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
@@ -261,6 +262,8 @@ impl<'a> Monitor<'a> {
             self.generation = g;
             self.params = self.shared.params.read().clone();
             self.free_motion = free_motion(&self.params.effects);
+            // New parameters (gravity, the field, restitution, ...) may move what rested.
+            self.contacts.book.wake_all();
         }
     }
 
@@ -325,6 +328,10 @@ impl<'a> Monitor<'a> {
     fn judge_contacts(&mut self, end: u64, inboxes: &[Option<Inbox>]) {
         let params = &self.params;
         let span = (end - self.judged) as f64 * 1e-9 * params.time_scale;
+        if params.effects.collisions.is_none() {
+            // Collisions just went off: the balls the change woke move from the horizon on.
+            self.contacts.send_wakes(inboxes, self.judged);
+        }
         let Some(collisions) = params.effects.collisions.filter(|_| span > 0.0) else { return };
         // The judged time always ends on the grid: every span is whole periods from the first.
         let grid = self.shared.grid(self.judged);
@@ -336,6 +343,7 @@ impl<'a> Monitor<'a> {
         let substeps = ((end - self.judged) / self.period_ns) as u32 * per_piece.count;
         let setting = PassSetting {
             generation: self.generation,
+            may_sleep: params.effects.attraction.is_none() && self.shared.config.sleep,
             start: self.judged,
             end,
             time_scale: params.time_scale,
@@ -373,6 +381,9 @@ impl<'a> Monitor<'a> {
 struct PassSetting<'a> {
     /// The generation of the parameters the pass runs with (see [`Monitor::refresh_params`]).
     generation: u64,
+    /// Whether balls may sleep under the parameters' effects: not with attraction on (every
+    /// ball pulls every other).
+    may_sleep: bool,
     /// The span the pass judges (runtime clock, ns).
     start: u64,
     end: u64,
@@ -406,7 +417,8 @@ struct InFlight {
 #[derive(Clone, Copy)]
 struct Sent {
     message: Contact,
-    after: Ball,
+    /// `None` for a wake sent without the ball's record (see [`ContactPass::send_wakes`]).
+    after: Option<Ball>,
 }
 
 impl InFlight {
@@ -534,6 +546,33 @@ struct ContactPass {
     /// The largest distance so far between where a pass left a ball and where the ball's next
     /// record puts it at that instant (m): how well the monitor's motion matches the threads'.
     drift_max: f64,
+    /// The resting balls' book: quiet stretches, sleeping islands (see `sleep.rs`).
+    book: SleepBook,
+    /// Passes so far (for the book's `seen`).
+    pass: u64,
+    /// The records of the balls asleep this pass, and where each is held.
+    sleepers: Vec<u32>,
+    held: Vec<DVec2>,
+    /// The broad phase's circles: the awake balls' (reach grown by a struck ball's travel), then
+    /// the sleepers'.
+    all_centres: Vec<DVec2>,
+    all_reach: Vec<f64>,
+    /// Scratch of the pass's sleep: sleepers to wake, slots woken, islands, per-ball walls and
+    /// quiet, per-island readiness, whether each ball goes to sleep now.
+    to_wake: Vec<u32>,
+    woken: Vec<usize>,
+    islands: Islands,
+    ball_walls: Vec<[f64; 4]>,
+    touches: Vec<bool>,
+    island_ready: Vec<bool>,
+    island_touches: Vec<bool>,
+    island_members: Vec<Vec<usize>>,
+    island_force: Vec<[f64; 4]>,
+    sleep_now: Vec<bool>,
+    /// Messages sent, dropped and sent by channel this pass (added to the statistics once).
+    sent: u64,
+    dropped: u64,
+    by_channel: u64,
 }
 
 impl ContactPass {
@@ -552,39 +591,173 @@ impl ContactPass {
             scratch: IntegratorScratch::default(),
             drift_max: 0.0,
             fastest: 0.0,
+            book: SleepBook::new(capacity),
+            pass: 0,
+            sleepers: Vec::new(),
+            held: Vec::new(),
+            all_centres: Vec::new(),
+            all_reach: Vec::new(),
+            to_wake: Vec::new(),
+            woken: Vec::new(),
+            islands: Islands::default(),
+            ball_walls: Vec::new(),
+            touches: Vec::new(),
+            island_ready: Vec::new(),
+            island_touches: Vec::new(),
+            island_members: Vec::new(),
+            island_force: Vec::new(),
+            sleep_now: Vec::new(),
+            sent: 0,
+            dropped: 0,
+            by_channel: 0,
         }
     }
 
-    /// The contact part of one pass, in four named steps: every ball carried to the end of the
-    /// span ([`ContactPass::gather`]), the candidate pairs ([`ContactPass::find_pairs`]), one
-    /// solve of every contact ([`ContactPass::solve`]) and one message per touched ball
-    /// ([`ContactPass::send_responses`]).
+    /// The contact part of one pass, in named steps: every awake ball carried to the end of the
+    /// span ([`ContactPass::gather`]), the candidate pairs and the sleeping islands they wake
+    /// ([`ContactPass::find_pairs`]), the wakes sent ([`ContactPass::send_wakes`]) and the
+    /// sleeping islands' weight put on the walls, one solve of every contact
+    /// ([`ContactPass::solve`]), the islands that may sleep now ([`ContactPass::settle`]) and
+    /// one message per touched ball ([`ContactPass::send_responses`]).
     fn run(&mut self, shared: &Shared, inboxes: &[Option<Inbox>], records: &[BallRecord], s: &PassSetting) {
         self.gather(records, inboxes, s);
-        self.find_pairs(s);
+        self.find_pairs(records, inboxes, s);
+        self.send_wakes(inboxes, s.start);
+        if self.book.any_asleep() {
+            add_monitor_walls(shared, &self.book.wall_impulses(s.params.span));
+        }
         self.solve(shared, s);
-        self.send_responses(shared, records, inboxes, s);
-        // Relaxed: a statistic (the monitor is its only writer).
+        self.settle(records, s);
+        self.send_responses(records, inboxes, s);
+        // Relaxed: statistics (the monitor is their only writer), added once a pass (an atomic
+        // add per message cost more than the rest of its bookkeeping).
         shared.judged_drift_max.store(self.drift_max.to_bits(), Ordering::Relaxed);
+        shared.contact_messages_sent.fetch_add(std::mem::take(&mut self.sent), Ordering::Relaxed);
+        shared.messages_dropped.fetch_add(std::mem::take(&mut self.dropped), Ordering::Relaxed);
+        shared.responses_by_channel.fetch_add(std::mem::take(&mut self.by_channel), Ordering::Relaxed);
+        let (slept, woken) = self.book.take_counts();
+        shared.balls_asleep.store(self.book.asleep(), Ordering::Relaxed);
+        shared.balls_slept.fetch_add(slept, Ordering::Relaxed);
+        shared.balls_woken.fetch_add(woken, Ordering::Relaxed);
     }
 
-    /// Every ball that takes part, at the end of the span in free motion (`balls`), with the
-    /// circle its path over the span lies in (`centres`, `reach`) and the fastest speed met.
+    /// Sends every ball woken since the last call its wake, stamped `stamp` (the start of the
+    /// span being judged: the horizon, which no ball has passed).
+    fn send_wakes(&mut self, inboxes: &[Option<Inbox>], stamp: u64) {
+        let mut woken = std::mem::take(&mut self.woken);
+        self.book.take_waking(&mut woken);
+        for &slot in &woken {
+            let Some(inbox) = inboxes.get(slot).and_then(|i| i.as_ref()) else { continue };
+            if self.book.watch(slot).incarnation != Some(inbox.incarnation) {
+                continue;
+            }
+            let message = Contact { dv: DVec2::ZERO, dx: DVec2::ZERO, stamp, apply_at: stamp, rest: Rest::Wake };
+            self.send(inbox, slot, message, None);
+        }
+        self.woken = woken;
+    }
+
+    /// Sends `message` to the ball in `slot` (its ring, or its channel: see `contact_ring`) and
+    /// notes it in flight, `after` the ball as the message leaves it.
+    fn send(&mut self, inbox: &Inbox, slot: usize, message: Contact, after: Option<Ball>) {
+        let in_flight = &mut self.in_flight[slot];
+        // The ring only once the ball holds every message sent by the channel (read again
+        // only while some are out: the count is on a line the ball writes).
+        let ring_open = in_flight.by_channel == in_flight.channel_seen || {
+            in_flight.channel_seen = inbox.contacts.taken_from_channel();
+            in_flight.by_channel == in_flight.channel_seen
+        };
+        let by_ring = ring_open && inbox.contacts.push(&mut in_flight.ring, &message);
+        // The channel's send fails only if the ball's thread is gone (it panicked): counted
+        // as dropped. (A push to the ring of a ball that panicked counts as sent: its slot is
+        // cleared at once, so for a pass at most.)
+        if by_ring || inbox.commands.send(Message::Contact(message)).is_ok() {
+            if !by_ring {
+                in_flight.by_channel += 1;
+                self.by_channel += 1;
+            }
+            in_flight.push(Sent { message, after });
+            self.sent += 1;
+        } else {
+            self.dropped += 1;
+        }
+    }
+
+    /// Every awake ball that takes part, at the end of the span in free motion (`balls`, see
+    /// [`ContactPass::take_part`]); the sleeping ones in `sleepers`, where they are held. A
+    /// sleeping island wakes here when one of its balls was pulled, thrown or given a new mass
+    /// (its record shows it), or is gone from the field.
     fn gather(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
         self.balls.clear();
         self.record_of.clear();
         self.starts.clear();
         self.centres.clear();
         self.reach.clear();
+        self.sleepers.clear();
         self.fastest = 0.0;
+        self.pass += 1;
         for (k, r) in records.iter().enumerate() {
             // A ball being removed takes part in no contact: its partners get no half-impulse
             // it would not get.
             let Some(incarnation) = inbox(inboxes, r).map(|i| i.incarnation) else { continue };
             let applied = self.in_flight[r.slot].sync(r, incarnation);
+            if self.book.watch(r.slot).incarnation != Some(incarnation) {
+                self.book.renew(r.slot, incarnation);
+            }
             if !(r.ball.is_finite() && r.ball.mass > 0.0 && r.ball.diameter > 0.0) {
                 continue;
             }
+            let w = self.book.watch_mut(r.slot);
+            if let Some(island) = w.island {
+                w.seen = self.pass;
+                // Commands reach a sleeping ball's state but do not move it: the monitor wakes it.
+                let moved = r.acceleration != w.acceleration
+                    || r.ball.mass != w.mass
+                    || r.ball.diameter != w.diameter
+                    || (r.asleep && r.ball.velocity != DVec2::ZERO);
+                if moved {
+                    self.book.wake_island(island);
+                }
+                self.sleepers.push(k as u32);
+                continue;
+            }
+            self.take_part(k, r, incarnation, applied, s);
+        }
+        if !self.book.any_asleep() && self.sleepers.is_empty() {
+            return;
+        }
+        self.book.wake_islands_missing_a_ball(self.pass);
+        self.sort_sleepers(records, inboxes, s);
+    }
+
+    /// Takes the woken balls of `sleepers` into the pass ([`ContactPass::take_part`]) and notes
+    /// where the others are held (`held`): where the record says once the ball holds every
+    /// message sent (a sleep applied late leaves it a little off where the monitor put it), where
+    /// the monitor put it before.
+    fn sort_sleepers(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
+        let sleepers = std::mem::take(&mut self.sleepers);
+        self.held.clear();
+        let mut kept = Vec::with_capacity(sleepers.len());
+        for &k in &sleepers {
+            let r = &records[k as usize];
+            let w = self.book.watch(r.slot);
+            if w.island.is_some() {
+                let at_record = r.asleep && self.in_flight[r.slot].queue.is_empty();
+                self.held.push(if at_record { r.ball.position } else { w.held });
+                kept.push(k);
+                continue;
+            }
+            let Some(incarnation) = inbox(inboxes, r).map(|i| i.incarnation) else { continue };
+            self.take_part(k as usize, r, incarnation, None, s);
+        }
+        self.sleepers = kept;
+    }
+
+    /// Ball `k` of the records, `r`, takes part in the pass: carried from the span's start to its
+    /// end in free motion, with the circle its path lies in (`centres`, `reach`) and the fastest
+    /// speed met. `applied`: see [`InFlight::sync`].
+    fn take_part(&mut self, k: usize, r: &BallRecord, incarnation: u64, applied: Option<Sent>, s: &PassSetting) {
+        {
             let a = if r.acceleration.is_finite() { r.acceleration } else { DVec2::ZERO };
             let (x_start, v_start) = self.span_start(r, incarnation, a, applied, s);
             let (mut x, mut v) = (x_start, v_start);
@@ -635,15 +808,18 @@ impl ContactPass {
         if let Some(j) = last.filter(|j| j.record_time == r.time && j.record_applied == r.applied) {
             return (j.position, j.velocity);
         }
-        let as_put = applied.is_some_and(|m| m.message.stamp == r.time && m.after == r.ball);
+        let as_put = applied.is_some_and(|m| m.message.stamp == r.time && m.after == Some(r.ball));
         if let Some(j) = last.filter(|j| as_put && j.acceleration == a && j.generation == s.generation) {
             return (j.position, j.velocity);
         }
-        let (mut x, mut v, mut t) = (r.ball.position, r.ball.velocity, r.time);
+        let (mut x, mut v, mut t, mut asleep) = (r.ball.position, r.ball.velocity, r.time, r.asleep);
         for Sent { message: m, .. } in &self.in_flight[r.slot].queue {
-            t = follow(&s.motion, &s.params.field, (&mut x, &mut v, t), m, &r.ball, a, &mut self.scratch);
+            t = follow(&s.motion, &s.params.field, (&mut x, &mut v, t, &mut asleep), m, &r.ball, a, &mut self.scratch);
         }
-        s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
+        // A ball the book has woken is held to the span's start, where its wake is stamped.
+        if !asleep {
+            s.motion.advance(&mut x, &mut v, &r.ball, a, t, s.start, &mut self.scratch);
+        }
         // How far the ball's own motion took it from where the last pass left it.
         if let Some(j) = last {
             self.drift_max = self.drift_max.max(x.distance(j.position));
@@ -657,17 +833,128 @@ impl ContactPass {
     /// so every path's circle grows by that much travel, and a struck ball's next contact in the
     /// span is among its pairs too. The margin keeps pairs that the solver left exactly touching
     /// (a row at rest, struck at one end).
-    fn find_pairs(&mut self, s: &PassSetting) {
-        let struck_travel = 2.0 * self.fastest * s.params.span;
-        for reach in &mut self.reach {
-            *reach += struck_travel;
-        }
+    ///
+    /// The sleeping balls are in the broad phase too, each its own circle: a pair of an awake
+    /// ball and a sleeping one wakes the sleeper's island, whose balls then take part in the pass
+    /// (and may wake more in turn). Two sleepers make no pair.
+    fn find_pairs(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
         self.broad_phase.set_margin(TOUCH_MARGIN);
-        let field = &s.params.field;
-        self.broad_phase.update(&self.centres, &self.reach, field.width, field.height);
-        self.pairs.clear();
-        let pairs = &mut self.pairs;
-        self.broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
+        loop {
+            self.pairs.clear();
+            let awake = self.balls.len();
+            if awake == 0 {
+                return;
+            }
+            let struck_travel = 2.0 * self.fastest * s.params.span;
+            self.all_centres.clear();
+            self.all_reach.clear();
+            self.all_centres.extend_from_slice(&self.centres);
+            self.all_reach.extend(self.reach.iter().map(|r| r + struck_travel));
+            self.all_centres.extend_from_slice(&self.held);
+            self.all_reach.extend(self.sleepers.iter().map(|&k| records[k as usize].ball.radius()));
+            let field = &s.params.field;
+            self.broad_phase.update(&self.all_centres, &self.all_reach, field.width, field.height);
+            let (pairs, to_wake) = (&mut self.pairs, &mut self.to_wake);
+            to_wake.clear();
+            self.broad_phase.for_each_touching_pair(|i, j| match (i < awake, j < awake) {
+                (true, true) => pairs.push((i as u32, j as u32)),
+                (true, false) => to_wake.push((j - awake) as u32),
+                (false, true) => to_wake.push((i - awake) as u32),
+                (false, false) => {}
+            });
+            if self.to_wake.is_empty() {
+                return;
+            }
+            for &k in &self.to_wake {
+                let slot = records[self.sleepers[k as usize] as usize].slot;
+                if let Some(island) = self.book.watch(slot).island {
+                    self.book.wake_island(island);
+                }
+            }
+            self.sort_sleepers(records, inboxes, s);
+        }
+    }
+
+    /// Which of the pass's balls sleep from the span's end (`sleep_now`): the islands of touching
+    /// balls (the solve's resting contacts) that touch something and whose every ball has been
+    /// quiet for [`TIME_TO_SLEEP`] (see `physics::sleep`). Keeps each ball's quiet stretch and
+    /// its walls' impulses over it, and books the islands that sleep with their walls' mean
+    /// force.
+    fn settle(&mut self, records: &[BallRecord], s: &PassSetting) {
+        let n = self.balls.len();
+        self.sleep_now.clear();
+        self.sleep_now.resize(n, false);
+        if n == 0 {
+            return;
+        }
+        self.ball_walls.clear();
+        self.ball_walls.resize(n, [0.0; 4]);
+        self.touches.clear();
+        self.touches.resize(n, false);
+        self.islands.reset(n);
+        let (walls, touches, islands) = (&mut self.ball_walls, &mut self.touches, &mut self.islands);
+        self.solver.for_each_wall_impulse(|i, wall, j| walls[i][wall_index(wall)] += j);
+        self.solver.for_each_touching(|a, b| {
+            touches[a] = true;
+            if let Some(b) = b {
+                touches[b] = true;
+                islands.join(a as u32, b as u32);
+            }
+        });
+        self.island_ready.clear();
+        self.island_ready.resize(n, s.may_sleep);
+        self.island_touches.clear();
+        self.island_touches.resize(n, false);
+        let responses = self.solver.responses();
+        let gravity = s.motion.gravity;
+        let ns_to_s = 1e-9 * s.time_scale;
+        for (i, b) in self.balls.iter().enumerate() {
+            let slot = records[self.record_of[i] as usize].slot;
+            let response = &responses[i];
+            let v = b.velocity + response.velocity_change;
+            let quiet = s.may_sleep && is_quiet(v, 2.0 * b.radius, b.acceleration, gravity, response.struck);
+            let w = self.book.watch_mut(slot);
+            let rested = if quiet {
+                let since = *w.quiet_since.get_or_insert(s.start);
+                for (sum, j) in w.walls.iter_mut().zip(self.ball_walls[i]) {
+                    *sum += j;
+                }
+                (s.end - since) as f64 * ns_to_s >= TIME_TO_SLEEP
+            } else {
+                w.quiet_since = None;
+                w.walls = [0.0; 4];
+                false
+            };
+            let root = self.islands.find(i as u32) as usize;
+            self.island_ready[root] &= rested;
+            self.island_touches[root] |= self.touches[i];
+        }
+        // Each island that sleeps, as one list of slots (indexed by root until booked).
+        self.island_members.resize_with(n, Vec::new);
+        self.island_force.clear();
+        self.island_force.resize(n, [0.0; 4]);
+        let mut roots = Vec::new();
+        for i in 0..n {
+            let root = self.islands.find(i as u32) as usize;
+            if !(self.island_ready[root] && self.island_touches[root]) {
+                continue;
+            }
+            self.sleep_now[i] = true;
+            let slot = records[self.record_of[i] as usize].slot;
+            let w = self.book.watch(slot);
+            let quiet = (s.end - w.quiet_since.unwrap_or(s.start)) as f64 * ns_to_s;
+            for (f, j) in self.island_force[root].iter_mut().zip(w.walls) {
+                *f += j / quiet;
+            }
+            if self.island_members[root].is_empty() {
+                roots.push(root);
+            }
+            self.island_members[root].push(slot);
+        }
+        for root in roots {
+            let members = std::mem::take(&mut self.island_members[root]);
+            self.book.put_to_sleep(members, self.island_force[root]);
+        }
     }
 
     /// One solve of every contact of the span, counted, its wall impulses on the monitor's gauge.
@@ -683,13 +970,15 @@ impl ContactPass {
     }
 
     /// Remembers where the solve left every ball at the span's end (the next pass continues from
-    /// there), and sends each ball with a response worth sending one stamped message.
-    fn send_responses(&mut self, shared: &Shared, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
-        let (mut sent, mut dropped, mut by_channel) = (0, 0, 0);
-        for (i, response) in self.solver.responses().iter().enumerate() {
-            let b = &self.balls[i];
+    /// there), and sends each ball with a response worth sending one stamped message, and each
+    /// ball that sleeps from the span's end its sleep (see [`Rest::Sleep`]).
+    fn send_responses(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
+        for i in 0..self.balls.len() {
+            let response = self.solver.responses()[i];
+            let b = self.balls[i];
             let r = &records[self.record_of[i] as usize];
             let Some(inbox) = inbox(inboxes, r) else { continue };
+            let sleeps = self.sleep_now[i];
             let mut judged = Judged {
                 incarnation: inbox.incarnation,
                 record_time: r.time,
@@ -700,18 +989,25 @@ impl ContactPass {
                 acceleration: b.acceleration,
                 generation: s.generation,
             };
-            if negligible(response, b.radius, s.params.span) {
+            if !sleeps && negligible(&response, b.radius, s.params.span) {
                 // No message: the ball moves on in free motion, as the solve found it.
                 (judged.position, judged.velocity) = (b.position, b.velocity);
                 self.judged[r.slot] = Some(judged);
                 continue;
             }
             let before_end = (response.instant / s.time_scale * 1e9).clamp(0.0, (s.end - s.start) as f64) as u64;
-            let message = Contact {
-                dv: response.velocity_change,
-                dx: response.shift,
-                stamp: s.end,
-                apply_at: s.end - before_end,
+            let message = if sleeps {
+                // Quiet balls took no impact: the response acts at the span's end, and the ball
+                // stops there, `dv` taking away the very velocity the monitor carried it to.
+                Contact { dv: -b.velocity, dx: response.shift, stamp: s.end, apply_at: s.end, rest: Rest::Sleep }
+            } else {
+                Contact {
+                    dv: response.velocity_change,
+                    dx: response.shift,
+                    stamp: s.end,
+                    apply_at: s.end - before_end,
+                    rest: Rest::Unchanged,
+                }
             };
             // The next pass goes on from where the ball will be: carried through its response as
             // its thread carries it (applied at its instant, not at the span's end as the solve
@@ -728,64 +1024,55 @@ impl ContactPass {
                 (self.starts[i].0, self.starts[i].1, s.start)
             };
             let a = b.acceleration;
-            follow(&s.motion, &s.params.field, (&mut x, &mut v, t), &message, &r.ball, a, &mut self.scratch);
+            let mut asleep = false;
+            let state = (&mut x, &mut v, t, &mut asleep);
+            follow(&s.motion, &s.params.field, state, &message, &r.ball, a, &mut self.scratch);
             (judged.position, judged.velocity) = (x, v);
             self.judged[r.slot] = Some(judged);
-            let in_flight = &mut self.in_flight[r.slot];
-            // The ring only once the ball holds every message sent by the channel (read again
-            // only while some are out: the count is on a line the ball writes).
-            let ring_open = in_flight.by_channel == in_flight.channel_seen || {
-                in_flight.channel_seen = inbox.contacts.taken_from_channel();
-                in_flight.by_channel == in_flight.channel_seen
-            };
-            let by_ring = ring_open && inbox.contacts.push(&mut in_flight.ring, &message);
-            // The channel's send fails only if the ball's thread is gone (it panicked): counted
-            // as dropped. (A push to the ring of a ball that panicked counts as sent: its slot is
-            // cleared at once, so for a pass at most.)
-            if by_ring || inbox.commands.send(Message::Contact(message)).is_ok() {
-                if !by_ring {
-                    in_flight.by_channel += 1;
-                    by_channel += 1;
-                }
-                in_flight.push(Sent { message, after: Ball { position: x, velocity: v, ..r.ball } });
-                sent += 1;
-            } else {
-                dropped += 1;
+            if sleeps {
+                let w = self.book.watch_mut(r.slot);
+                (w.held, w.mass, w.diameter, w.acceleration) = (x, r.ball.mass, r.ball.diameter, a);
             }
+            self.send(inbox, r.slot, message, Some(Ball { position: x, velocity: v, ..r.ball }));
         }
-        // Relaxed: statistics, added once a pass (an atomic add per message cost more than the
-        // rest of its bookkeeping).
-        shared.contact_messages_sent.fetch_add(sent, Ordering::Relaxed);
-        shared.messages_dropped.fetch_add(dropped, Ordering::Relaxed);
-        shared.responses_by_channel.fetch_add(by_channel, Ordering::Relaxed);
     }
 }
 
 /// Carries a ball from `(x, v)` at instant `t` through the response `m` as its thread does (see
 /// `ball_thread::catch_up`): on to the response's instant, the response applied, on to the end of
-/// its span in one stretch, held inside the field there. Returns the instant it is then at.
+/// its span in one stretch, held inside the field there; then asleep or awake as the message
+/// says (a sleeping ball is held still). Returns the instant it is then at.
 #[inline]
 fn follow(
     motion: &Motion<'_>,
     field: &Field,
-    (x, v, mut t): (&mut DVec2, &mut DVec2, u64),
+    (x, v, mut t, asleep): (&mut DVec2, &mut DVec2, u64, &mut bool),
     m: &Contact,
     ball: &Ball,
     a: DVec2,
     scratch: &mut IntegratorScratch,
 ) -> u64 {
     if m.apply_at > t {
-        motion.advance(x, v, ball, a, t, m.apply_at, scratch);
+        if !*asleep {
+            motion.advance(x, v, ball, a, t, m.apply_at, scratch);
+        }
         t = m.apply_at;
     }
     *v += m.dv;
     *x += m.shift_at(t, motion.time_scale);
     if m.stamp > t {
-        motion.advance(x, v, ball, a, t, m.stamp, scratch);
+        if !*asleep {
+            motion.advance(x, v, ball, a, t, m.stamp, scratch);
+        }
         t = m.stamp;
     }
     if t == m.stamp {
         hold_inside(x, ball.radius(), field);
+    }
+    match m.rest {
+        Rest::Unchanged => {}
+        Rest::Sleep => *asleep = true,
+        Rest::Wake => *asleep = false,
     }
     t
 }

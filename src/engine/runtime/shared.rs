@@ -25,6 +25,9 @@ pub struct RuntimeConfig {
     /// `ball_thread::Waiter`). Off: they always sleep to the cycle grid (kept for comparison;
     /// `BALLFIELD_BALL_WAIT=sleep` turns it off for headless runs).
     pub yield_when_crowded: bool,
+    /// Whether islands at rest may sleep (see `runtime/sleep.rs`); off, the monitor solves
+    /// every resting contact every pass (tests of the messages' paths use it).
+    pub sleep: bool,
 }
 
 impl Default for RuntimeConfig {
@@ -35,6 +38,7 @@ impl Default for RuntimeConfig {
             monitor_period: Duration::from_millis(1),
             max_balls: 1024,
             yield_when_crowded: true,
+            sleep: true,
         }
     }
 }
@@ -93,6 +97,11 @@ pub(crate) struct Shared {
     /// it before the message came: only a ball placed ahead of the monitor's horizon can).
     /// Relaxed: a statistic.
     pub responses_late: AtomicU64,
+    /// Balls asleep after the monitor's last pass, and balls it put to sleep and woke so far
+    /// (see `physics::sleep`; the monitor is the only writer; Relaxed: statistics).
+    pub balls_asleep: AtomicU64,
+    pub balls_slept: AtomicU64,
+    pub balls_woken: AtomicU64,
     /// Cleared to stop the monitor.
     pub monitor_running: AtomicBool,
     /// Every occupied slot is below this. Raised (Release) by the runtime after it has written
@@ -168,6 +177,9 @@ impl Shared {
             clock_dropped_ns: AtomicU64::new(0),
             horizon_waits: AtomicU64::new(0),
             judged_drift_max: AtomicU64::new(0),
+            balls_asleep: AtomicU64::new(0),
+            balls_slept: AtomicU64::new(0),
+            balls_woken: AtomicU64::new(0),
             responses_late: AtomicU64::new(0),
             monitor_running: AtomicBool::new(true),
             high_water: AtomicUsize::new(0),

@@ -36,7 +36,7 @@ use crate::physics::{Ball, BallId, BallKind, WallImpulses};
 /// Words in a slot besides the sequence number.
 const WORDS: usize = 16;
 // Word indices.
-const W_ID: usize = 0; // id + 1 with bit 63 set for the key ball; 0 = empty slot
+const W_ID: usize = 0; // id + 1 with bit 63 set for the key ball, bit 62 while it sleeps; 0 = empty slot
 const W_X: usize = 1;
 const W_Y: usize = 2;
 const W_VX: usize = 3;
@@ -51,6 +51,7 @@ const W_AX: usize = 14; // the ball's uniform acceleration (gravity + its pull /
 const W_AY: usize = 15;
 
 const KEY_BIT: u64 = 1 << 63;
+const ASLEEP_BIT: u64 = 1 << 62;
 
 /// What the table says about one ball at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,6 +72,9 @@ pub struct BallRecord {
     /// The ball's uniform acceleration (m/s²: gravity, plus the pull over the mass for the key
     /// ball), for that extrapolation.
     pub acceleration: DVec2,
+    /// Whether the ball sleeps at `time` (the monitor put it to sleep: its thread holds it still;
+    /// see `physics::sleep`).
+    pub asleep: bool,
 }
 
 /// One latched seqlock over `N` words (the table uses `N = WORDS`; the loom model also checks it
@@ -151,7 +155,9 @@ impl BallTable {
         let b = &record.ball;
         let wi = &record.wall_impulses;
         let mut w = [0u64; WORDS];
-        w[W_ID] = (b.id.0 as u64 + 1) | if b.kind == BallKind::Key { KEY_BIT } else { 0 };
+        w[W_ID] = (b.id.0 as u64 + 1)
+            | if b.kind == BallKind::Key { KEY_BIT } else { 0 }
+            | if record.asleep { ASLEEP_BIT } else { 0 };
         w[W_X] = b.position.x.to_bits();
         w[W_Y] = b.position.y.to_bits();
         w[W_VX] = b.velocity.x.to_bits();
@@ -186,7 +192,7 @@ impl BallTable {
         Some(BallRecord {
             slot,
             ball: Ball {
-                id: BallId(((raw[W_ID] & !KEY_BIT) - 1) as u32),
+                id: BallId(((raw[W_ID] & !(KEY_BIT | ASLEEP_BIT)) - 1) as u32),
                 kind,
                 position: DVec2::new(f(W_X), f(W_Y)),
                 velocity: DVec2::new(f(W_VX), f(W_VY)),
@@ -203,6 +209,7 @@ impl BallTable {
             },
             time: raw[W_TIME],
             acceleration: DVec2::new(f(W_AX), f(W_AY)),
+            asleep: raw[W_ID] & ASLEEP_BIT != 0,
         })
     }
 
