@@ -34,18 +34,6 @@ fn settled(rt: &Runtime) -> Settled {
     Settled { time, floor: rt.wall_impulses().bottom, bodies: rt.bodies() }
 }
 
-/// The largest overlap of any two balls, relative to their contact distance.
-fn largest_overlap(b: &Bodies) -> f64 {
-    let mut worst = 0.0f64;
-    for i in 0..b.len() {
-        for j in i + 1..b.len() {
-            let reach = b.radius[i] + b.radius[j];
-            worst = worst.max((reach - b.position[i].distance(b.position[j])) / reach);
-        }
-    }
-    worst
-}
-
 /// The figures of one run: the pile left to settle for `settle` seconds of wall time, then
 /// watched for `samples` stretches of `every`: the floor's impulse over the watch against M·g·T,
 /// the largest overlap at its end, and the kinetic energy at the end of each stretch with the
@@ -78,7 +66,7 @@ fn run(scene: &Scene, settle: Duration, every: Duration, samples: usize) -> Figu
     let weight: f64 = b.bodies.mass.iter().sum::<f64>() * 9.81;
     let figures = Figures {
         floor_ratio: (b.floor - a.floor) / (weight * (b.time - a.time)),
-        overlap: largest_overlap(&b.bodies),
+        overlap: common::largest_overlap(&b.bodies),
         kinetic,
         began: a.time,
     };

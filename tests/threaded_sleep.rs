@@ -10,18 +10,6 @@ use ballfield::physics::{Bodies, kinetic_energy};
 use ballfield::runtime::{Runtime, RuntimeConfig};
 use glam::DVec2;
 
-/// The largest overlap of any two balls, relative to their contact distance.
-fn largest_overlap(b: &Bodies) -> f64 {
-    let mut worst = 0.0f64;
-    for i in 0..b.len() {
-        for j in i + 1..b.len() {
-            let reach = b.radius[i] + b.radius[j];
-            worst = worst.max((reach - b.position[i].distance(b.position[j])) / reach);
-        }
-    }
-    worst
-}
-
 /// Waits (up to `limit` of wall time) until every ball sleeps.
 fn all_asleep(rt: &Runtime, limit: Duration) -> bool {
     let t0 = Instant::now();
@@ -64,7 +52,10 @@ fn a_pile_sleeps_carries_its_weight_and_wakes_when_a_ball_lands_on_it() {
     assert!(all_asleep(&rt, Duration::from_secs(10)), "the pile did not fall asleep: {:?}", rt.stats());
     let (floor, bodies) = watch(&rt, Duration::from_millis(500));
     let kinetic = kinetic_energy(&bodies);
-    eprintln!("asleep: floor {floor:.6} of M·g·T, kinetic {kinetic:e} J, overlap {:.4}", largest_overlap(&bodies));
+    eprintln!(
+        "asleep: floor {floor:.6} of M·g·T, kinetic {kinetic:e} J, overlap {:.4}",
+        common::largest_overlap(&bodies)
+    );
     assert!((floor - 1.0).abs() < 2e-3, "asleep, the floor took {floor} of the weight");
     assert_eq!(kinetic, 0.0);
     // A ball dropped on the pile's top.
@@ -79,7 +70,7 @@ fn a_pile_sleeps_carries_its_weight_and_wakes_when_a_ball_lands_on_it() {
     assert!(stats.balls_woken > woken_before, "the landing woke nothing: {stats:?}");
     assert!(all_asleep(&rt, Duration::from_secs(10)), "the pile did not sleep again: {:?}", rt.stats());
     let (floor, bodies) = watch(&rt, Duration::from_millis(500));
-    let overlap = largest_overlap(&bodies);
+    let overlap = common::largest_overlap(&bodies);
     let stats = rt.stats();
     eprintln!("asleep again: floor {floor:.6} of M·g·T, overlap {overlap:.4}; {stats:?}");
     rt.shutdown();

@@ -125,3 +125,15 @@ pub fn settled_small_pile() -> (ballfield::Scene, Lockstep) {
     scene.balls = (0..l.bodies().len()).map(|i| l.bodies().get(i)).collect();
     (scene, l)
 }
+
+/// The largest overlap of any two balls, relative to their contact distance.
+pub fn largest_overlap(b: &ballfield::physics::Bodies) -> f64 {
+    let mut worst = 0.0f64;
+    for i in 0..b.len() {
+        for j in i + 1..b.len() {
+            let reach = b.radius[i] + b.radius[j];
+            worst = worst.max((reach - b.position[i].distance(b.position[j])) / reach);
+        }
+    }
+    worst
+}
