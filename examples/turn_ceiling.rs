@@ -5,7 +5,10 @@
 //! here bound the threaded runtime's `ball_rate_min` and `ball_rate_median` at the same number
 //! of balls, in the same sitting: the context switch, not the ball's own arithmetic, is what a
 //! thousand threads on two cores spend most of their time in (`perf` on a 1,024-ball gas: about
-//! three quarters of the CPU in the scheduler).
+//! three quarters of the CPU in the scheduler). Like the ball threads, each thread first puts
+//! its AVX-512 registers back in their initial state (`ballfield::runtime::WideRegisters`), so
+//! that its switches do not save them; `--keep-avx512` leaves them in use, to show the
+//! difference.
 //!
 //! ```sh
 //! cargo run --release --example turn_ceiling -- --threads 1024 --seconds 5
@@ -16,6 +19,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use ballfield::runtime::WideRegisters;
 use clap::Parser;
 
 #[derive(Parser, Debug)]
@@ -27,6 +31,11 @@ struct Args {
     /// How long to count, s.
     #[arg(long, default_value_t = 5.0)]
     seconds: f64,
+    /// Leave the threads' AVX-512 registers in use, as they start (copied from the main thread,
+    /// which glibc's string functions dirty), instead of clearing them as the ball threads do:
+    /// what that costs each switch.
+    #[arg(long)]
+    keep_avx512: bool,
 }
 
 fn idle_scheduling() {
@@ -53,10 +62,14 @@ fn main() -> ExitCode {
     let stop = Arc::new(AtomicBool::new(false));
     let turns: Arc<Vec<AtomicU64>> = Arc::new((0..n).map(|_| AtomicU64::new(0)).collect());
     let mut threads = Vec::with_capacity(n);
+    let keep_avx512 = args.keep_avx512;
     for i in 0..n {
         let (thread_go, thread_stop, thread_turns) = (go.clone(), stop.clone(), turns.clone());
         let spawned = std::thread::Builder::new().stack_size(64 << 10).spawn(move || {
             idle_scheduling();
+            if !keep_avx512 {
+                WideRegisters::detect().release();
+            }
             while !thread_go.load(Ordering::Relaxed) && !thread_stop.load(Ordering::Relaxed) {
                 std::thread::yield_now();
             }
@@ -93,8 +106,9 @@ fn main() -> ExitCode {
     rates.sort_by(f64::total_cmp);
     let total: f64 = rates.iter().sum();
     println!(
-        "{n} SCHED_IDLE threads that only yield, {elapsed:.1} s: turns a second per thread slowest {:.0}, median {:.0}; \
+        "{n} SCHED_IDLE threads that only yield{}, {elapsed:.1} s: turns a second per thread slowest {:.0}, median {:.0}; \
          {:.0} switches a second in all ({:.2} µs each on {} cores)",
+        if keep_avx512 { " (AVX-512 registers kept in use)" } else { "" },
         rates[0],
         rates[n / 2],
         total,

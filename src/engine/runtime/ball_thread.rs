@@ -22,6 +22,7 @@ use super::contact_ring::ContactRing;
 use super::message::{Contact, Message, Rest, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
+use super::wide_registers::WideRegisters;
 use crate::physics::Field;
 use crate::physics::{
     Attraction, Ball, BallForces, BallKind, BallProps, BallSteps, Effects, Forces, IntegratorScratch, NearBall,
@@ -222,7 +223,11 @@ pub(crate) fn run_ball(
     let mut ball = Cycles { shared: &shared, state, commands: Commands::default(), params, scratch };
     let mut last = Instant::now();
     let mut waiter = Waiter::new(shared.epoch, cycle, shared.config.yield_when_crowded);
+    let wide = WideRegisters::detect();
     loop {
+        // Before each wait: a switch with the AVX-512 registers in use saves and restores them
+        // (see `wide_registers`); the thread starts with them in use, copied from its parent.
+        wide.release();
         let mut now = waiter.wait(last);
         let Some((horizon, received)) =
             take_arrivals(&shared, &inbox, &contacts, &mut ball.state, &mut ball.commands, &mut now)

@@ -19,6 +19,7 @@ mod monitor;
 mod shared;
 mod sleep;
 mod table;
+mod wide_registers;
 
 /// What [`table`] and [`contact_ring`] are built on. `tests/table_loom.rs` and
 /// `tests/contact_ring_loom.rs` compile those files themselves beside a `sync` of their own that
@@ -42,6 +43,7 @@ use serde::Serialize;
 pub use message::{Contact, Message, Rest};
 pub use shared::{Params, RuntimeConfig};
 pub use table::{BallRecord, BallTable};
+pub use wide_registers::WideRegisters;
 
 use crate::engine::EngineError;
 use crate::physics::{Ball, BallId, BallKind, Bodies, Effects, Field, Integrator, WallImpulses};
