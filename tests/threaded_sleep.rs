@@ -44,7 +44,8 @@ fn watch(rt: &Runtime, wall: Duration) -> (f64, Bodies) {
 /// Measured (2026-12-02, a 2-core machine also running a CI build): asleep, the floor 0.99991
 /// of M·g·T, kinetic 0 J; asleep again after the landing, 1.00011, largest overlap 0.50 % (the
 /// solver's slop), 150 balls woken. Seen to fail with the sleeping islands' walls left off the
-/// gauge: "asleep, the floor took 0 of the weight".
+/// gauge: "asleep, the floor took 0 of the weight"; and with the broad phase's awake–asleep pairs
+/// waking nothing (`monitor.rs`, the `to_wake` pushes left out): "the landing woke nothing".
 #[test]
 fn a_pile_sleeps_carries_its_weight_and_wakes_when_a_ball_lands_on_it() {
     let (scene, _) = common::settled_small_pile();

@@ -957,15 +957,6 @@ pub struct ContactSolver {
     warm_span: f64,
 }
 
-fn wall_key(wall: Wall) -> u8 {
-    match wall {
-        Wall::Left => 0,
-        Wall::Right => 1,
-        Wall::Bottom => 2,
-        Wall::Top => 3,
-    }
-}
-
 impl ContactSolver {
     /// An empty solver (no warm start yet).
     pub fn new() -> Self {
@@ -1073,7 +1064,7 @@ impl ContactSolver {
             for wall in nearer_walls(b.position, field) {
                 let ball = (i as u32, b.position, b.velocity, b.acceleration, b.inverse_mass, b.radius);
                 if let Some(mut c) = wall_contact(ball, wall, field, span) {
-                    c.impulse = warm(self.warm_walls.get(&(b.id, wall_key(wall))).copied());
+                    c.impulse = warm(self.warm_walls.get(&(b.id, wall.index() as u8)).copied());
                     self.lists[0].push(c);
                 }
             }
@@ -1237,7 +1228,7 @@ impl ContactSolver {
                 let impulse = c.impulse.max(RESTED);
                 let (ia, ib) = (balls[c.a as usize].id, c.b);
                 if c.is_wall() {
-                    self.warm_walls.insert((ia, wall_key(c.wall)), impulse);
+                    self.warm_walls.insert((ia, c.wall.index() as u8), impulse);
                 } else {
                     let ib = balls[ib as usize].id;
                     self.warm_pairs.insert(if ia <= ib { (ia, ib) } else { (ib, ia) }, impulse);

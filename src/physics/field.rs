@@ -42,6 +42,20 @@ pub enum Wall {
     Top,
 }
 
+impl Wall {
+    /// The wall's place in the order left, right, bottom, top (that of [`WallImpulses`]'s
+    /// fields), for tables kept per wall.
+    #[inline]
+    pub fn index(self) -> usize {
+        match self {
+            Wall::Left => 0,
+            Wall::Right => 1,
+            Wall::Bottom => 2,
+            Wall::Top => 3,
+        }
+    }
+}
+
 /// Impulse taken by each wall (N·s, magnitudes), summed over a run: the field's pressure gauge.
 /// Divided by the elapsed time and the wall's length it is the pressure on that wall.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -19,7 +19,7 @@ use crossbeam_channel::{Receiver, TryRecvError};
 use glam::DVec2;
 
 use super::contact_ring::ContactRing;
-use super::message::{Contact, Message, Rest, clock_seconds};
+use super::message::{Contact, Message, clock_seconds};
 use super::shared::{Params, Shared};
 use super::table::BallRecord;
 use super::wide_registers::WideRegisters;
@@ -476,11 +476,7 @@ fn catch_up(
             let radius = state.ball.radius();
             hold_inside(&mut state.ball.position, radius, &params.field);
         }
-        match m.rest {
-            Rest::Unchanged => {}
-            Rest::Sleep => state.asleep = true,
-            Rest::Wake => state.asleep = false,
-        }
+        m.rest.apply(&mut state.asleep);
     }
     cross(state, grid.at_or_before(target), &mut source, &mut substeps);
     // The longest cycle so far and its sub-steps, for the report (a stall shows as one long

@@ -88,6 +88,17 @@ pub enum Rest {
 }
 
 impl Rest {
+    /// A ball's sleep (`asleep`) once a message with this rest is applied: the ball's thread and
+    /// the monitor's prediction of it follow the same rule.
+    #[inline]
+    pub fn apply(self, asleep: &mut bool) {
+        match self {
+            Rest::Unchanged => {}
+            Rest::Sleep => *asleep = true,
+            Rest::Wake => *asleep = false,
+        }
+    }
+
     /// The message word for the ring.
     pub fn word(self) -> u64 {
         match self {

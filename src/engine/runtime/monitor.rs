@@ -60,7 +60,7 @@ use super::ball_thread::hold_inside;
 use super::contact_ring::{ContactRing, RingWriter};
 use super::message::{Contact, Grid, Message, Rest, clock_seconds};
 use super::shared::{Params, Shared};
-use super::sleep::{SleepBook, wall_index};
+use super::sleep::SleepBook;
 use super::table::BallRecord;
 use crate::physics::{
     Attraction, AttractionMethod, Ball, BallProps, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag,
@@ -735,22 +735,27 @@ impl ContactPass {
     /// message sent (a sleep applied late leaves it a little off where the monitor put it), where
     /// the monitor put it before.
     fn sort_sleepers(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
-        let sleepers = std::mem::take(&mut self.sleepers);
+        // Taken out for the loop (`take_part` borrows the pass) and compacted in place: the ones
+        // still asleep keep their order at the front.
+        let mut sleepers = std::mem::take(&mut self.sleepers);
         self.held.clear();
-        let mut kept = Vec::with_capacity(sleepers.len());
-        for &k in &sleepers {
+        let mut kept = 0;
+        for i in 0..sleepers.len() {
+            let k = sleepers[i];
             let r = &records[k as usize];
             let w = self.book.watch(r.slot);
             if w.island.is_some() {
                 let at_record = r.asleep && self.in_flight[r.slot].queue.is_empty();
                 self.held.push(if at_record { r.ball.position } else { w.held });
-                kept.push(k);
+                sleepers[kept] = k;
+                kept += 1;
                 continue;
             }
             let Some(incarnation) = inbox(inboxes, r).map(|i| i.incarnation) else { continue };
             self.take_part(k as usize, r, incarnation, None, s);
         }
-        self.sleepers = kept;
+        sleepers.truncate(kept);
+        self.sleepers = sleepers;
     }
 
     /// Ball `k` of the records, `r`, takes part in the pass: carried from the span's start to its
@@ -893,7 +898,7 @@ impl ContactPass {
         self.touches.resize(n, false);
         self.islands.reset(n);
         let (walls, touches, islands) = (&mut self.ball_walls, &mut self.touches, &mut self.islands);
-        self.solver.for_each_wall_impulse(|i, wall, j| walls[i][wall_index(wall)] += j);
+        self.solver.for_each_wall_impulse(|i, wall, j| walls[i][wall.index()] += j);
         self.solver.for_each_touching(|a, b| {
             touches[a] = true;
             if let Some(b) = b {
@@ -1069,11 +1074,7 @@ fn follow(
     if t == m.stamp {
         hold_inside(x, ball.radius(), field);
     }
-    match m.rest {
-        Rest::Unchanged => {}
-        Rest::Sleep => *asleep = true,
-        Rest::Wake => *asleep = false,
-    }
+    m.rest.apply(asleep);
     t
 }
 

@@ -22,7 +22,7 @@
 
 use glam::DVec2;
 
-use crate::physics::{Wall, WallImpulses};
+use crate::physics::WallImpulses;
 
 /// The monitor's watch of one slot's ball.
 #[derive(Clone, Copy, Debug, Default)]
@@ -66,15 +66,6 @@ pub(crate) struct SleepBook {
     woken: u64,
     /// Slots woken and not yet sent their wake.
     waking: Vec<usize>,
-}
-
-pub(crate) fn wall_index(wall: Wall) -> usize {
-    match wall {
-        Wall::Left => 0,
-        Wall::Right => 1,
-        Wall::Bottom => 2,
-        Wall::Top => 3,
-    }
 }
 
 impl SleepBook {
