@@ -988,6 +988,43 @@ impl ContactSolver {
         }
     }
 
+    /// Each warm-start impulse the last solve kept for the next (see `keep_warm_start`):
+    /// `f(a, key, impulse)`, `a` the index in the solve's balls of the contact's first ball. What
+    /// an island put to sleep takes with it, to be handed back by
+    /// [`ContactSolver::restore_warm_start`] when it wakes, over the span of
+    /// [`ContactSolver::warm_span`].
+    pub fn for_each_warm_start(&self, balls: &[SolverBall], mut f: impl FnMut(usize, WarmKey, f64)) {
+        for c in self.lists.iter().take(1).flatten().filter(|c| c.active) {
+            let (a, ia) = (c.a as usize, balls[c.a as usize].id);
+            let key = if c.is_wall() { WarmKey::Wall(ia, c.wall) } else { WarmKey::pair(ia, balls[c.b as usize].id) };
+            f(a, key, c.impulse.max(RESTED));
+        }
+    }
+
+    /// The span (s) the kept warm-start impulses were taken over (0 before the first solve).
+    pub fn warm_span(&self) -> f64 {
+        self.warm_span
+    }
+
+    /// Hands back warm-start impulses taken over `span` (from [`ContactSolver::for_each_warm_start`])
+    /// for the next solve, each carried over to the kept ones' span as the solve carries its own
+    /// (a steady force); a contact that has one kept already keeps its own. A sleeping island's
+    /// contacts are this: left out of every solve while it slept, they come back with the support
+    /// they had, instead of from nothing (a cold resting solve lets a woken pile sag and jolt).
+    pub fn restore_warm_start(&mut self, kept: &[(WarmKey, f64)], span: f64) {
+        if self.warm_span <= 0.0 && self.warm_pairs.is_empty() && self.warm_walls.is_empty() {
+            self.warm_span = span;
+        }
+        let ratio = if self.warm_span > 0.0 && span > 0.0 { self.warm_span / span } else { 1.0 };
+        for &(key, j) in kept {
+            let j = if j > RESTED { j * ratio } else { j };
+            match key {
+                WarmKey::Pair(a, b) => self.warm_pairs.entry((a, b)).or_insert(j),
+                WarmKey::Wall(a, wall) => self.warm_walls.entry((a, wall.index() as u8)).or_insert(j),
+            };
+        }
+    }
+
     /// Solves every contact of `balls` over the span (see the module comment). `pairs` are
     /// candidate pairs as indices into `balls`, each unordered pair at most once; pairs with an
     /// index out of range, or a ball with a non-finite state, non-positive radius or inverse mass,
@@ -1238,6 +1275,23 @@ impl ContactSolver {
     }
 }
 
+/// What a warm-start impulse is kept by between solves: the ids of a pair's balls (the smaller
+/// first: see [`WarmKey::pair`]), or a ball's id and its wall.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum WarmKey {
+    /// A contact of two balls.
+    Pair(BallId, BallId),
+    /// A contact of a ball and a wall.
+    Wall(BallId, Wall),
+}
+
+impl WarmKey {
+    /// The key of the pair of `a` and `b`, in either order.
+    pub fn pair(a: BallId, b: BallId) -> Self {
+        if a <= b { WarmKey::Pair(a, b) } else { WarmKey::Pair(b, a) }
+    }
+}
+
 /// Whether the solver takes `b` into any contact: a finite state, a positive finite inverse mass
 /// and radius.
 fn usable(b: &SolverBall) -> bool {
@@ -1302,5 +1356,59 @@ mod tests {
         assert_eq!(order.iter().map(|&k| k as u32).collect::<Vec<_>>(), [4, 2, 0, 1]);
         order_by_height(&list, &position, DVec2::ZERO, &mut order);
         assert_eq!(order.iter().map(|&k| k as u32).collect::<Vec<_>>(), [0, 1, 2, 4]);
+    }
+
+    /// A warm start handed back (an island woken) is the warm start the solver would have kept:
+    /// a column of three balls resting on the floor, settled over 300 spans by one solver; a new
+    /// solver given that solver's warm start through `for_each_warm_start` and
+    /// `restore_warm_start` answers the next span to the bit as the first does, and one without
+    /// it does not (its resting solve starts from nothing).
+    #[test]
+    fn a_restored_warm_start_is_the_kept_one() {
+        let (h, g) = (1e-3, DVec2::new(0.0, -9.81));
+        let params = ContactParams {
+            restitution: 0.5,
+            field: Field { width: 10.0, height: 10.0, restitution: 0.5 },
+            span: h,
+            drift: resting_drift(Integrator::SemiImplicitEuler, 1),
+        };
+        let mut balls: Vec<SolverBall> = (0..3)
+            .map(|k| SolverBall {
+                id: BallId(7 + k),
+                position: DVec2::new(5.0, 0.5 + f64::from(k)),
+                velocity: DVec2::ZERO,
+                acceleration: g,
+                inverse_mass: 1.0,
+                radius: 0.5,
+            })
+            .collect();
+        let free_motion = |balls: &mut [SolverBall]| {
+            for b in balls.iter_mut() {
+                b.velocity += g * h;
+                b.position += b.velocity * h;
+            }
+        };
+        let pairs = [(0, 1), (1, 2), (0, 2)];
+        let mut kept = ContactSolver::new();
+        for _ in 0..300 {
+            free_motion(&mut balls);
+            kept.solve(&balls, &pairs, &params);
+            for (b, r) in balls.iter_mut().zip(kept.responses()) {
+                b.velocity += r.velocity_change;
+                b.position += r.shift;
+            }
+        }
+        let mut warm = Vec::new();
+        kept.for_each_warm_start(&balls, |_, key, j| warm.push((key, j)));
+        assert_eq!(warm.len(), 3, "two pairs and the floor: {warm:?}");
+        let mut restored = ContactSolver::new();
+        restored.restore_warm_start(&warm, kept.warm_span());
+        let mut cold = ContactSolver::new();
+        free_motion(&mut balls);
+        kept.solve(&balls, &pairs, &params);
+        restored.solve(&balls, &pairs, &params);
+        cold.solve(&balls, &pairs, &params);
+        assert_eq!(restored.responses(), kept.responses());
+        assert_ne!(cold.responses(), kept.responses());
     }
 }

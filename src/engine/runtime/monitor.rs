@@ -60,12 +60,13 @@ use super::ball_thread::hold_inside;
 use super::contact_ring::{ContactRing, RingWriter};
 use super::message::{Contact, Grid, Message, Rest, clock_seconds};
 use super::shared::{Params, Shared};
-use super::sleep::SleepBook;
+use super::sleep::{SleepBook, WarmStart};
 use super::table::BallRecord;
 use crate::physics::{
     Attraction, AttractionMethod, Ball, BallProps, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag,
     DragRateBound, Effects, Field, Forces, Integrator, IntegratorScratch, Islands, NoOtherBalls, SolverBall, SpanRates,
-    StepPolicy, TIME_TO_SLEEP, TREE_MIN_BALLS, WallImpulses, advance_ball, is_quiet, resting_drift, swept_circle,
+    StepPolicy, TIME_TO_SLEEP, TREE_MIN_BALLS, WallImpulses, WarmKey, advance_ball, is_quiet, resting_drift,
+    swept_circle,
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
@@ -558,7 +559,8 @@ struct ContactPass {
     all_centres: Vec<DVec2>,
     all_reach: Vec<f64>,
     /// Scratch of the pass's sleep: sleepers to wake, slots woken, islands, per-ball walls and
-    /// quiet, per-island readiness, whether each ball goes to sleep now.
+    /// quiet, per-island readiness, members, wall force and warm start, whether each ball goes to
+    /// sleep now.
     to_wake: Vec<u32>,
     woken: Vec<usize>,
     islands: Islands,
@@ -568,6 +570,7 @@ struct ContactPass {
     island_touches: Vec<bool>,
     island_members: Vec<Vec<usize>>,
     island_force: Vec<[f64; 4]>,
+    island_warm: Vec<Vec<(WarmKey, f64)>>,
     sleep_now: Vec<bool>,
     /// Messages sent, dropped and sent by channel this pass (added to the statistics once).
     sent: u64,
@@ -605,6 +608,7 @@ impl ContactPass {
             island_ready: Vec::new(),
             island_touches: Vec::new(),
             island_members: Vec::new(),
+            island_warm: Vec::new(),
             island_force: Vec::new(),
             sleep_now: Vec::new(),
             sent: 0,
@@ -623,6 +627,8 @@ impl ContactPass {
         self.gather(records, inboxes, s);
         self.find_pairs(records, inboxes, s);
         self.send_wakes(inboxes, s.start);
+        let solver = &mut self.solver;
+        self.book.take_waking_warm(|w| solver.restore_warm_start(&w.impulses, w.span));
         if self.book.any_asleep() {
             add_monitor_walls(shared, &self.book.wall_impulses(s.params.span));
         }
@@ -956,9 +962,23 @@ impl ContactPass {
             }
             self.island_members[root].push(slot);
         }
+        if roots.is_empty() {
+            return;
+        }
+        // Each island's contacts' warm start, which it takes to sleep with it (every contact
+        // touching a ball of the island is the island's: that is what joins it).
+        self.island_warm.resize_with(n, Vec::new);
+        let (islands, sleep_now, island_warm) = (&mut self.islands, &self.sleep_now, &mut self.island_warm);
+        self.solver.for_each_warm_start(&self.balls, |a, key, j| {
+            if sleep_now[a] {
+                island_warm[islands.find(a as u32) as usize].push((key, j));
+            }
+        });
+        let span = self.solver.warm_span();
         for root in roots {
             let members = std::mem::take(&mut self.island_members[root]);
-            self.book.put_to_sleep(members, self.island_force[root]);
+            let warm = WarmStart { impulses: std::mem::take(&mut self.island_warm[root]), span };
+            self.book.put_to_sleep(members, self.island_force[root], warm);
         }
     }
 
