@@ -10,7 +10,8 @@
 #              dropped and run SETTLE s (wall clock), then run WATCH s more from that state: the
 #              floor's impulse over the second run against M·g·T, its largest overlap and kinetic
 #              energy at the end; lockstep's kinetic energy on the same scene after SETTLE s, and
-#              from the threaded state after WATCH s more.
+#              from the threaded state after WATCH s more; how many balls slept at the end of
+#              each threaded run.
 #   stall      a resting column of 5 balls (e = 1, then e = 0.8), the whole process stopped for
 #              0.5 s (SIGSTOP/SIGCONT): its energy change, largest overlap, whether the column
 #              kept its order (nothing tunnelled). REPEAT runs each.
@@ -54,8 +55,8 @@ PY
 for part in ${parts[@]}; do
 case $part in
 pile)
-  echo "| scene | floor / M·g·T | largest overlap | kinetic J | lockstep kinetic J (same scene, ${settle} s / from the threaded state) | passes /s | mean pass ms | longest pass ms | unconverged | clock dropped s | others' cores | load before |"
-  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  echo "| scene | floor / M·g·T | largest overlap | kinetic J | lockstep kinetic J (same scene, ${settle} s / from the threaded state) | passes /s | mean pass ms | longest pass ms | unconverged | asleep at the end (dropped / watched) | clock dropped s | others' cores | load before |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
   for scene in pile assets/scenes/hard/pile.toml; do
     name=$(echo "$scene" | sed -e 's#assets/scenes/##' -e 's#\.toml$##' -e 's#/#-#g')
     l0=$(load); j0=$(jiffies)
@@ -68,9 +69,10 @@ pile)
     "$bin" --scene "$scene" headless --duration "$watch" --threads 1 --state-in "$dir/$name.csv" \
       --report "$dir/$name-lb.json" -q
     o=$(others "$j0" "$j1" "$dir/$name-b.json")
-    python3 - "$dir/$name-b.json" "$dir/$name-l.json" "$dir/$name-lb.json" "$name" "$o" "$l0" <<'PY'
+    python3 - "$dir/$name-b.json" "$dir/$name-l.json" "$dir/$name-lb.json" "$name" "$o" "$l0" "$dir/$name-a.json" <<'PY'
 import json, sys
 b, l, lb = (json.load(open(f)) for f in sys.argv[1:4])
+a = json.load(open(sys.argv[7]))
 t = b["runtime"]; e = b["end"]
 g = 9.81
 weight = b["balls"] * g  # every ball of these scenes is 1 kg
@@ -78,7 +80,8 @@ ratio = e["wall_impulses"]["bottom"] / (weight * b["simulated_seconds"])
 print(f"| {sys.argv[4]} | {ratio:.4f} | {e['largest_overlap_ratio'] * 100:.2f} % | {e['kinetic']:.2e} | "
       f"{l['end']['kinetic']:.2e} / {lb['end']['kinetic']:.2e} | {t['monitor_passes_per_second']:.0f} | "
       f"{t['monitor_pass_seconds'] * 1e3:.3f} | {t['monitor_pass_seconds_max'] * 1e3:.1f} | "
-      f"{t['solves_unconverged']} of {t['monitor_passes']} | {t['clock_dropped_seconds']:.3f} | {sys.argv[5]} | {sys.argv[6]} |")
+      f"{t['solves_unconverged']} of {t['monitor_passes']} | {a['runtime']['balls_asleep']} / {t['balls_asleep']} of {b['balls']} | "
+      f"{t['clock_dropped_seconds']:.3f} | {sys.argv[5]} | {sys.argv[6]} |")
 PY
   done
   ;;
