@@ -993,11 +993,9 @@ impl ContactSolver {
     /// an island put to sleep takes with it, to be handed back by
     /// [`ContactSolver::restore_warm_start`] when it wakes, over the span of
     /// [`ContactSolver::warm_span`].
-    pub fn for_each_warm_start(&self, balls: &[SolverBall], mut f: impl FnMut(usize, WarmKey, f64)) {
-        for c in self.lists.iter().take(1).flatten().filter(|c| c.active) {
-            let (a, ia) = (c.a as usize, balls[c.a as usize].id);
-            let key = if c.is_wall() { WarmKey::Wall(ia, c.wall) } else { WarmKey::pair(ia, balls[c.b as usize].id) };
-            f(a, key, c.impulse.max(RESTED));
+    pub fn for_each_warm_start(&self, balls: &[SolverBall], f: impl FnMut(usize, WarmKey, f64)) {
+        if let Some(list) = self.lists.first() {
+            warm_starts(list, balls, f);
         }
     }
 
@@ -1114,9 +1112,7 @@ impl ContactSolver {
                 continue;
             }
             if let Some(mut c) = pair_contact(solver_body(balls, i), solver_body(balls, j), span, e) {
-                let key =
-                    if balls[i].id <= balls[j].id { (balls[i].id, balls[j].id) } else { (balls[j].id, balls[i].id) };
-                c.impulse = warm(self.warm_pairs.get(&key).copied());
+                c.impulse = warm(self.warm_pairs.get(&ordered(balls[i].id, balls[j].id)).copied());
                 self.lists[0].push(c);
                 self.listed[k] = true;
             }
@@ -1260,19 +1256,32 @@ impl ContactSolver {
         self.warm_pairs.clear();
         self.warm_walls.clear();
         self.warm_span = span;
-        for c in self.lists[0].iter() {
-            if c.active {
-                let impulse = c.impulse.max(RESTED);
-                let (ia, ib) = (balls[c.a as usize].id, c.b);
-                if c.is_wall() {
-                    self.warm_walls.insert((ia, c.wall.index() as u8), impulse);
-                } else {
-                    let ib = balls[ib as usize].id;
-                    self.warm_pairs.insert(if ia <= ib { (ia, ib) } else { (ib, ia) }, impulse);
-                }
-            }
-        }
+        let (pairs, walls) = (&mut self.warm_pairs, &mut self.warm_walls);
+        warm_starts(&self.lists[0], balls, |_, key, impulse| {
+            match key {
+                WarmKey::Pair(a, b) => pairs.insert((a, b), impulse),
+                WarmKey::Wall(a, wall) => walls.insert((a, wall.index() as u8), impulse),
+            };
+        });
     }
+}
+
+/// Each active contact of `list` with the impulse it hands on as a warm start (at least
+/// [`RESTED`], the mark of a contact that rested): `f(a, key, impulse)`, `a` its first ball's index
+/// in `balls`.
+#[inline]
+fn warm_starts(list: &[Contact], balls: &[SolverBall], mut f: impl FnMut(usize, WarmKey, f64)) {
+    for c in list.iter().filter(|c| c.active) {
+        let (a, ia) = (c.a as usize, balls[c.a as usize].id);
+        let key = if c.is_wall() { WarmKey::Wall(ia, c.wall) } else { WarmKey::pair(ia, balls[c.b as usize].id) };
+        f(a, key, c.impulse.max(RESTED));
+    }
+}
+
+/// A pair's ids, the smaller first: how a pair's warm start is kept.
+#[inline]
+fn ordered(a: BallId, b: BallId) -> (BallId, BallId) {
+    if a <= b { (a, b) } else { (b, a) }
 }
 
 /// What a warm-start impulse is kept by between solves: the ids of a pair's balls (the smaller
@@ -1288,7 +1297,8 @@ pub enum WarmKey {
 impl WarmKey {
     /// The key of the pair of `a` and `b`, in either order.
     pub fn pair(a: BallId, b: BallId) -> Self {
-        if a <= b { WarmKey::Pair(a, b) } else { WarmKey::Pair(b, a) }
+        let (a, b) = ordered(a, b);
+        WarmKey::Pair(a, b)
     }
 }
 
