@@ -130,6 +130,24 @@ impl<const N: usize> ContactRing<N> {
         true
     }
 
+    /// Asks the core to fetch the slot the next push from `writer` fills (producer only; a hint,
+    /// which changes nothing the ring holds). The slot's line was last read by the ball's core, so
+    /// a push that finds it there waits for it; fetched a few balls ahead, it is here by then.
+    #[inline]
+    pub(crate) fn prefetch_next(&self, writer: &RingWriter) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let slot: *const RingSlot = &self.slots[(writer.pushed & Self::MASK) as usize];
+            // SAFETY: SSE is in x86_64's baseline, so the instruction exists; a prefetch reads
+            // and writes no memory and faults on no address (this one is in the ring). A read
+            // prefetch: the write prefetch (PREFETCHW, `prfchw`) is not stable Rust.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(slot.cast()) };
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = writer;
+    }
+
     /// Takes the response numbered `*next` if it is there (consumer only), counting it.
     pub(crate) fn pop(&self, next: &mut u64) -> Option<Contact> {
         let slot = &self.slots[(*next & Self::MASK) as usize];

@@ -16,6 +16,7 @@ mod ball_thread;
 mod contact_ring;
 mod message;
 mod monitor;
+mod sent_queue;
 mod shared;
 mod sleep;
 mod table;

@@ -46,7 +46,6 @@
 //! solve, a poor stand-in for the passes that did not happen; nobody integrated that time (the
 //! horizon held every ball), so the clock drops it, as a pause does, and the span is one period.
 
-use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
@@ -59,6 +58,7 @@ use super::attraction_tree::TreePublisher;
 use super::ball_thread::hold_inside;
 use super::contact_ring::{ContactRing, RingWriter};
 use super::message::{Contact, Grid, Message, Rest, clock_seconds};
+use super::sent_queue::SentQueue;
 use super::shared::{Params, Shared};
 use super::sleep::{SleepBook, WarmStart};
 use super::table::BallRecord;
@@ -409,9 +409,18 @@ struct InFlight {
     channel_seen: u64,
     /// The last `queue.len()` messages sent, oldest first: their sequence numbers run on to
     /// `sent`, and message k is applied once the ball's `applied` count exceeds k (a ball applies
-    /// its contact messages in the order they were sent).
-    queue: VecDeque<Sent>,
+    /// its contact messages in the order they were sent). The newest [`INLINE_SENT`] are kept in
+    /// this slot itself (see `sent_queue`).
+    queue: SentQueue<Sent, INLINE_SENT>,
 }
+
+/// Messages in flight to one ball kept in its slot of the monitor's array: a ball's thread takes
+/// its inbox every one to six passes on the 1,024-ball pile, so eight cover all but a starved
+/// ball's (whose older ones go to the heap).
+const INLINE_SENT: usize = 8;
+
+/// How many balls ahead `send_responses` asks for the ring slot it will write.
+const PREFETCH_AHEAD: usize = 8;
 
 /// A contact message sent, and the ball as the pass that sent it carried it to the message's
 /// stamp, its response applied (see [`ContactPass::send_responses`]).
@@ -435,14 +444,14 @@ impl InFlight {
         }
         let first = self.sent - self.queue.len() as u64;
         let applied = r.applied.saturating_sub(first).min(self.queue.len() as u64) as usize;
-        let newest = applied.checked_sub(1).map(|k| self.queue[k]);
-        self.queue.drain(..applied);
+        let newest = applied.checked_sub(1).and_then(|k| self.queue.get(k).copied());
+        self.queue.forget_oldest(applied);
         newest
     }
 
     /// Notes a message sent.
     fn push(&mut self, sent: Sent) {
-        self.queue.push_back(sent);
+        self.queue.push(sent);
         self.sent += 1;
     }
 }
@@ -824,7 +833,7 @@ impl ContactPass {
             return (j.position, j.velocity);
         }
         let (mut x, mut v, mut t, mut asleep) = (r.ball.position, r.ball.velocity, r.time, r.asleep);
-        for Sent { message: m, .. } in &self.in_flight[r.slot].queue {
+        for Sent { message: m, .. } in self.in_flight[r.slot].queue.iter() {
             t = follow(&s.motion, &s.params.field, (&mut x, &mut v, t, &mut asleep), m, &r.ball, a, &mut self.scratch);
         }
         // A ball the book has woken is held to the span's start, where its wake is stamped.
@@ -999,6 +1008,13 @@ impl ContactPass {
     /// ball that sleeps from the span's end its sleep (see [`Rest::Sleep`]).
     fn send_responses(&mut self, records: &[BallRecord], inboxes: &[Option<Inbox>], s: &PassSetting) {
         for i in 0..self.balls.len() {
+            // The ring slot a few balls on, asked for now: it is on a line the ball's core holds.
+            if let Some(&k) = self.record_of.get(i + PREFETCH_AHEAD) {
+                let r = &records[k as usize];
+                if let Some(inbox) = inbox(inboxes, r) {
+                    inbox.contacts.prefetch_next(&self.in_flight[r.slot].ring);
+                }
+            }
             let response = self.solver.responses()[i];
             let b = self.balls[i];
             let r = &records[self.record_of[i] as usize];
