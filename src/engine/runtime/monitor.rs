@@ -141,6 +141,15 @@ fn drop_time(shared: &Shared, ns: u64) {
 
 /// Runs the collision monitor until the runtime clears `monitor_running`: one pass per period
 /// (see the module comment), each a list of named steps ([`Monitor::pass`]).
+///
+/// The passes keep to a schedule of one a period. A pass that ends less than a period behind
+/// it (a pass that took longer than a period, a late wake-up) is followed at once by the next,
+/// and the schedule holds: a pile's passes take 0.6 to 0.8 ms on average but now and then
+/// 1.5 ms or more (an unconverged solve, the monitor preempted), and restarting the schedule
+/// after each such pass lost 3 to 5 % of the passes on the awake 1,024-ball pile. Further behind
+/// (the passes take longer than a period on average, the process stalled), the schedule starts
+/// afresh from the pass's end: the monitor does not rush a burst of passes, each of which would
+/// judge little (see [`Monitor::span_end`]).
 pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
     raise_priority();
     let period = shared.config.monitor_period;
@@ -155,7 +164,7 @@ pub(crate) fn run_monitor(shared: Arc<Shared>, inboxes: Inboxes) {
         let now = Instant::now();
         if next > now {
             std::thread::sleep(next - now);
-        } else {
+        } else if now - next >= period {
             next = now;
         }
     }
