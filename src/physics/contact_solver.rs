@@ -968,7 +968,9 @@ impl Tolerances {
 /// masses' sum, a product with `mass` here (the same bits when that sum is a power of two, as for
 /// equal unit masses): the division's latency bounds the pass. On the settled `pile`
 /// (`cargo bench --bench monitor_pass`) a span's solve takes about a fifth less than with
-/// [`resting_pass`] on the contacts themselves.
+/// [`resting_pass`] on the contacts themselves. The change a pass measures is likewise the
+/// impulse's times the inverse masses' sum, not over `mass` (the same to rounding; 2.6 % and
+/// 4.2 % off the bench's fixed and jittered spans, their tallies unchanged).
 #[derive(Clone, Copy, Debug, Default)]
 struct RestingRow {
     a: u32,
@@ -999,7 +1001,7 @@ fn resting_rows_pass(rows: &mut [RestingRow], v: &mut [DVec2], backward: bool) -
             r.impulse = impulse;
             v[a] -= (delta * r.inverse_mass_a) * r.normal;
             v[b] += (delta * r.inverse_mass_b) * r.normal;
-            largest = largest.max(delta.abs() / r.mass);
+            largest = largest.max(delta.abs() * (r.inverse_mass_a + r.inverse_mass_b));
         }
     }
     largest
