@@ -718,6 +718,7 @@ impl ImpactScratch {
                 target: r.target,
                 impulse: r.lambda,
                 delta: 0.0,
+                split: 0.0,
             });
         }
         let converged = solve_simultaneous(&mut self.round, v, &mut self.count, 1e-3 * impact_threshold);

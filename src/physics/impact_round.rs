@@ -42,13 +42,27 @@ pub struct RoundContact {
     pub impulse: f64,
     /// The last sweep's change of `impulse` (scratch).
     pub delta: f64,
+    /// The contact's share of its balls' split masses, `k_a/m_a + k_b/m_b` with `k` the ball's
+    /// contacts in the round (scratch: set by [`solve_simultaneous`]).
+    pub split: f64,
 }
 
 impl RoundContact {
     /// A contact of ball `a` with ball `b` (or an immovable support) along `normal`, no bias, its
     /// target and impulse zero (the caller sets the target before a round).
     pub fn new(a: usize, b: Option<usize>, normal: DVec2, inverse_mass_a: f64, inverse_mass_b: f64) -> Self {
-        RoundContact { a, b, normal, inverse_mass_a, inverse_mass_b, bias: 0.0, target: 0.0, impulse: 0.0, delta: 0.0 }
+        RoundContact {
+            a,
+            b,
+            normal,
+            inverse_mass_a,
+            inverse_mass_b,
+            bias: 0.0,
+            target: 0.0,
+            impulse: 0.0,
+            delta: 0.0,
+            split: 0.0,
+        }
     }
 
     /// The normal speed with its bias.
@@ -74,16 +88,22 @@ pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts
         }
         scale = scale.max(-c.normal_speed(v));
     }
+    // The counts hold through the sweeps: each contact's split is found once, the same bits as
+    // in every sweep, instead of from both balls' counts in each. (The monitor's solver on the
+    // landing `pile`, 4.75–7.5 s, two runs each way alternating: 1.04 / 1.06 ms a solve against
+    // 1.13 / 1.10 ms, every tally and energy the same.)
+    for c in contacts.iter_mut() {
+        let ka = counts[c.a] as f64;
+        let kb = c.b.map_or(0.0, |b| counts[b] as f64);
+        c.split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
+    }
     let tolerance = 1e-14 * scale + slack;
     let mut converged = false;
     for _ in 0..MAX_ROUND_ITERATIONS {
         let mut largest = 0.0f64;
         for c in contacts.iter_mut() {
             let vn = c.normal_speed(v);
-            let ka = counts[c.a] as f64;
-            let kb = c.b.map_or(0.0, |b| counts[b] as f64);
-            let split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
-            let impulse = (c.impulse + (c.target - vn) / split).max(0.0);
+            let impulse = (c.impulse + (c.target - vn) / c.split).max(0.0);
             c.delta = impulse - c.impulse;
             c.impulse = impulse;
             largest = largest.max(c.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
@@ -114,7 +134,7 @@ mod tests {
 
     fn contact(a: usize, b: Option<usize>, normal: DVec2, target: f64) -> RoundContact {
         let inverse_mass_b = if b.is_some() { 1.0 } else { 0.0 };
-        RoundContact { a, b, normal, inverse_mass_a: 1.0, inverse_mass_b, bias: 0.0, target, impulse: 0.0, delta: 0.0 }
+        RoundContact { target, inverse_mass_a: 1.0, ..RoundContact::new(a, b, normal, 1.0, inverse_mass_b) }
     }
 
     /// A ball at 5 m/s into two touching balls at ±30°, e = 1: B and C leave as mirror images, A
