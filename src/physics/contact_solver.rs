@@ -709,16 +709,16 @@ impl ImpactScratch {
         for r in &self.rows {
             let c = &lists[r.list as usize][r.index as usize];
             self.round.push(RoundContact {
-                a: c.a as usize,
-                b: (!c.is_wall()).then_some(c.b as usize),
-                normal: c.normal,
-                inverse_mass_a: c.inverse_mass_a,
-                inverse_mass_b: c.inverse_mass_b,
                 bias: c.bias,
                 target: r.target,
                 impulse: r.lambda,
-                delta: 0.0,
-                split: 0.0,
+                ..RoundContact::new(
+                    c.a as usize,
+                    (!c.is_wall()).then_some(c.b as usize),
+                    c.normal,
+                    c.inverse_mass_a,
+                    c.inverse_mass_b,
+                )
             });
         }
         let converged = solve_simultaneous(&mut self.round, v, &mut self.count, 1e-3 * impact_threshold);

@@ -134,7 +134,7 @@ mod tests {
 
     fn contact(a: usize, b: Option<usize>, normal: DVec2, target: f64) -> RoundContact {
         let inverse_mass_b = if b.is_some() { 1.0 } else { 0.0 };
-        RoundContact { target, inverse_mass_a: 1.0, ..RoundContact::new(a, b, normal, 1.0, inverse_mass_b) }
+        RoundContact { target, ..RoundContact::new(a, b, normal, 1.0, inverse_mass_b) }
     }
 
     /// A ball at 5 m/s into two touching balls at ±30°, e = 1: B and C leave as mirror images, A
