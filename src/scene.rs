@@ -16,7 +16,7 @@ use serde::{Deserialize, Deserializer};
 
 use crate::physics::{
     AIR_DENSITY, AIR_VISCOSITY, Attraction, Ball, BallId, BallKind, Collisions, DEFAULT_OPENING_ANGLE, Drag, Effects,
-    Field, Gravity, Integrator, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY,
+    Field, Gravity, Integrator, MAX_MASS, MAX_SPEED, MIN_MASS, NEWTON_G, SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY,
 };
 
 /// The ball limit when a scene does not set one (the original design's 1,024).
@@ -330,6 +330,12 @@ enum Layout {
 // ---------------------------------------------------------------------------------------------
 // Key paths and their lines.
 
+/// A number as a message shows it: in exponent form when it is very large or very small
+/// (`1e-320`, not three hundred zeros).
+pub(crate) fn number(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) { format!("{v:e}") } else { v.to_string() }
+}
+
 /// A path to a key, such as `balls[3].mass`.
 #[derive(Clone, Debug)]
 enum Seg {
@@ -426,6 +432,40 @@ impl Checker<'_> {
             Ok(v)
         } else {
             Err(self.invalid(path.to_vec(), v, "must be a finite number greater than zero"))
+        }
+    }
+
+    /// A mass an engine accepts: between [`MIN_MASS`] and [`MAX_MASS`].
+    fn mass(&self, path: &[Seg], v: f64) -> Result<f64, SceneError> {
+        let v = self.positive(path, v)?;
+        if (MIN_MASS..=MAX_MASS).contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.invalid(path.to_vec(), number(v), format!("must be a mass from {MIN_MASS:e} to {MAX_MASS:e} kg")))
+        }
+    }
+
+    /// A speed an engine does not cap: at most [`MAX_SPEED`].
+    fn speed(&self, path: &[Seg], v: f64) -> Result<f64, SceneError> {
+        let v = self.non_negative(path, v)?;
+        if v <= MAX_SPEED {
+            Ok(v)
+        } else {
+            Err(self.invalid(path.to_vec(), number(v), format!("must be a speed from 0 to {MAX_SPEED:e} m/s")))
+        }
+    }
+
+    /// A velocity whose speed is at most [`MAX_SPEED`].
+    fn velocity(&self, path: &[Seg], v: [f64; 2]) -> Result<DVec2, SceneError> {
+        let u = self.vector(path, v)?;
+        if u.length() <= MAX_SPEED {
+            Ok(u)
+        } else {
+            Err(self.invalid(
+                path.to_vec(),
+                format!("[{}, {}]", number(v[0]), number(v[1])),
+                format!("is faster than the speed limit, {MAX_SPEED:e} m/s"),
+            ))
         }
     }
 
@@ -771,11 +811,11 @@ impl Checker<'_> {
         diameter: f64,
         field: &Field,
     ) -> Result<(DVec2, DVec2, f64, f64), SceneError> {
-        let mass = self.positive(&with(path, Key("mass")), mass)?;
+        let mass = self.mass(&with(path, Key("mass")), mass)?;
         let diameter = self.positive(&with(path, Key("diameter")), diameter)?;
         self.fits(path, diameter, field)?;
         let p = self.vector(&with(path, Key("position")), position)?;
-        let v = self.vector(&with(path, Key("velocity")), velocity)?;
+        let v = self.velocity(&with(path, Key("velocity")), velocity)?;
         if !field.contains(p.x, p.y, 0.5 * diameter, 0.0) {
             let (width, height) = (field.width, field.height);
             return Err(self.invalid(
@@ -869,8 +909,8 @@ impl Checker<'_> {
     /// [`Checker::counts`]).
     fn batch(&self, p: &[Seg], g: &GenerateSpec, field: &Field, allow_overlap: bool) -> Result<Batch, SceneError> {
         let diameter = self.positive(&with(p, Key("diameter")), g.diameter)?;
-        let mass = self.positive(&with(p, Key("mass")), g.mass)?;
-        let speed = self.non_negative(&with(p, Key("speed")), g.speed)?;
+        let mass = self.mass(&with(p, Key("mass")), g.mass)?;
+        let speed = self.speed(&with(p, Key("speed")), g.speed)?;
         let gap = if allow_overlap {
             if !(g.gap.is_finite() && g.gap > -0.5) {
                 return Err(self.invalid(with(p, Key("gap")), g.gap, "must be a finite number above -0.5"));

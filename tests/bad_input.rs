@@ -218,6 +218,28 @@ fn scene_negative_mass() {
     assert_at(&m, "x.toml", 5, &["`generate[0].mass` = -2:", "greater than zero"]);
 }
 
+/// Masses outside what an engine accepts (a subnormal made `1/m` infinite and the run NaN; a
+/// huge one made the energies infinite) and speeds past the speed limit (which the engines would
+/// cap without a word) are refused, in exponent form.
+#[test]
+fn scene_mass_and_speed_outside_their_limits() {
+    let m = scene_err(&format!("{NAME}[[balls]]\nposition = [5.0, 5.0]\nmass = 1e-320\ndiameter = 1.0\n"));
+    assert_at(&m, "x.toml", 4, &["`balls[0].mass` = 1e-320:", "from 1e-12 to 1e15 kg"]);
+    let m = scene_err(&format!("{NAME}[key-ball]\nposition = [5.0, 5.0]\nmass = 1e308\ndiameter = 1.0\n"));
+    assert_at(&m, "x.toml", 4, &["`key-ball.mass` = 1e308:", "from 1e-12 to 1e15 kg"]);
+    let m = scene_err(&format!("{NAME}[[generate]]\ncount = 3\ndiameter = 1.0\nmass = 1e-13\n"));
+    assert_at(&m, "x.toml", 5, &["`generate[0].mass` = 1e-13:"]);
+    let m = scene_err(&format!(
+        "{NAME}[[balls]]\nposition = [5.0, 5.0]\nvelocity = [1e300, 0.0]\nmass = 1.0\ndiameter = 1.0\n"
+    ));
+    assert_at(&m, "x.toml", 4, &["`balls[0].velocity` = [1e300, 0]:", "speed limit, 1e5 m/s"]);
+    let m = scene_err(&format!("{NAME}[[generate]]\ncount = 1\ndiameter = 1.0\nmass = 1.0\nspeed = 2e5\n"));
+    assert_at(&m, "x.toml", 6, &["`generate[0].speed` = 200000:", "from 0 to 1e5 m/s"]);
+    // The limits themselves are accepted.
+    let text = format!("{NAME}[[balls]]\nposition = [5.0, 5.0]\nvelocity = [1e5, 0.0]\nmass = 1e15\ndiameter = 1.0\n");
+    assert!(Scene::from_toml_str(&text, &Origin("x.toml".into())).is_ok());
+}
+
 #[test]
 fn scene_zero_and_negative_diameter() {
     let m = scene_err(&format!("{NAME}[[balls]]\nposition = [5.0, 5.0]\nmass = 1.0\ndiameter = 0.0\n"));
@@ -475,6 +497,14 @@ fn state_bad_header() {
     assert_at(&m, "s.csv", 1, &["header", "id,kind,x,y,vx,vy,mass,diameter", "found `id,kind,x,y`"]);
     let m = state_err("");
     assert_at(&m, "s.csv", 1, &["header"]);
+}
+
+#[test]
+fn state_mass_and_speed_outside_their_limits() {
+    let m = state_err(&format!("{HEADER}0,ball,5,5,0,0,1e-320,1\n"));
+    assert_has(&m, &["s.csv:2", "`mass` = 1e-320", "from 1e-12 to 1e15 kg"]);
+    let m = state_err(&format!("{HEADER}0,ball,5,5,3e5,0,1,1\n"));
+    assert_has(&m, &["s.csv:2", "300000,0", "speed limit"]);
 }
 
 #[test]

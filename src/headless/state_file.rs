@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::physics::{Ball, BallId, BallKind, Field};
+use crate::physics::{Ball, BallId, BallKind, Field, MAX_MASS, MAX_SPEED, MIN_MASS};
 
 /// The columns of a state file, in order: the first line must name exactly these.
 pub const HEADER: [&str; 8] = ["id", "kind", "x", "y", "vx", "vy", "mass", "diameter"];
@@ -185,6 +185,20 @@ pub fn parse_state(text: &str, path: &Path, field: &Field) -> Result<Vec<Ball>, 
             if !(v.is_finite() && v > 0.0) {
                 return Err(bad(key, v.to_string(), "must be a finite number greater than zero"));
             }
+        }
+        if !(MIN_MASS..=MAX_MASS).contains(&row.mass) {
+            return Err(bad(
+                "mass",
+                crate::scene::number(row.mass),
+                &format!("must be a mass from {MIN_MASS:e} to {MAX_MASS:e} kg"),
+            ));
+        }
+        if DVec2::new(row.vx, row.vy).length() > MAX_SPEED {
+            return Err(bad(
+                "vx,vy",
+                format!("{},{}", crate::scene::number(row.vx), crate::scene::number(row.vy)),
+                &format!("is faster than the speed limit, {MAX_SPEED:e} m/s"),
+            ));
         }
         let tolerance = 1e-9 * field.width.max(field.height);
         if !field.contains(row.x, row.y, 0.5 * row.diameter, tolerance) {

@@ -33,6 +33,14 @@ impl BallKind {
     }
 }
 
+/// The lightest ball an engine accepts, kg: its `1/m` (what every impulse is scaled by) stays a
+/// normal number far from overflow. (A scene ball of 1e-320 kg, a subnormal, made `1/m` infinite
+/// and every state it touched NaN.)
+pub const MIN_MASS: f64 = 1e-12;
+/// The heaviest ball an engine accepts, kg: its momentum and energy at the speed limit
+/// ([`crate::physics::MAX_SPEED`]), summed over a full field, stay finite with room to spare.
+pub const MAX_MASS: f64 = 1e15;
+
 /// One ball, in SI units: position and velocity of its centre (m, m/s), mass (kg), diameter (m).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Ball {

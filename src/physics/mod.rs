@@ -21,7 +21,7 @@ mod sleep;
 mod step_policy;
 mod sweep;
 
-pub use ball::{Ball, BallId, BallKind, disc_area};
+pub use ball::{Ball, BallId, BallKind, MAX_MASS, MIN_MASS, disc_area};
 pub use ball_steps::{BallSteps, advance_ball};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
 pub use bodies::Bodies;
