@@ -25,7 +25,8 @@ pub struct Diagnostics {
     pub momentum: [f64; 2],
     /// Largest overlap between two balls, m.
     pub largest_overlap: f64,
-    /// The same as a fraction of the smaller diameter of that pair.
+    /// Largest overlap between two balls as a fraction of the smaller diameter of the pair (in a
+    /// field of mixed sizes, not always the pair of [`Diagnostics::largest_overlap`]).
     pub largest_overlap_ratio: f64,
     /// Impulse taken by each wall so far, N·s.
     pub wall_impulses: WallImpulses,
@@ -75,18 +76,21 @@ pub fn attraction_potential_energy(bodies: &Bodies, effects: &Effects) -> f64 {
     sum
 }
 
-/// Largest overlap (m) and its ratio to the smaller diameter of the pair, over all pairs.
+/// Largest overlap (m) over all pairs, and the largest overlap as a fraction of the pair's
+/// smaller diameter (each its own pair: two small balls may overlap less in metres and more in
+/// proportion than two large ones).
 pub fn largest_overlap(bodies: &Bodies, field: &Field, scratch: &mut BroadPhase) -> (f64, f64) {
     scratch.update(&bodies.position, &bodies.radius, field.width, field.height);
-    let mut worst = (0.0f64, 0.0f64);
+    let (mut metres, mut ratio) = (0.0f64, 0.0f64);
     scratch.for_each_touching_pair(|i, j| {
         let reach = bodies.radius[i] + bodies.radius[j];
         let overlap = reach - bodies.position[i].distance(bodies.position[j]);
-        if overlap > worst.0 {
-            worst = (overlap, overlap / bodies.diameter[i].min(bodies.diameter[j]));
+        if overlap > 0.0 {
+            metres = metres.max(overlap);
+            ratio = ratio.max(overlap / bodies.diameter[i].min(bodies.diameter[j]));
         }
     });
-    worst
+    (metres, ratio)
 }
 
 /// Measures a state.
@@ -114,5 +118,36 @@ pub fn measure(bodies: &Bodies, field: &Field, effects: &Effects, wall_impulses:
         wall_impulses,
         non_finite,
         outside,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::{Ball, BallId, BallKind};
+
+    fn ball(id: u32, x: f64, y: f64, diameter: f64) -> Ball {
+        Ball {
+            id: BallId(id),
+            kind: BallKind::Ball,
+            position: DVec2::new(x, y),
+            velocity: DVec2::ZERO,
+            mass: 1.0,
+            diameter,
+        }
+    }
+
+    /// Two 10 m balls 1 cm into each other (0.1 % of a diameter) and two 0.1 m balls 5 mm into
+    /// each other (5 %): the largest overlap is the big pair's in metres and the small pair's in
+    /// proportion. (Taken as the ratio of the pair deepest in metres, it read 0.1 %.)
+    #[test]
+    fn the_largest_overlap_ratio_is_the_worst_pair_in_proportion() {
+        let balls =
+            [ball(0, 10.0, 10.0, 10.0), ball(1, 19.99, 10.0, 10.0), ball(2, 30.0, 1.0, 0.1), ball(3, 30.095, 1.0, 0.1)];
+        let bodies = Bodies::from_balls(&balls);
+        let field = Field { width: 40.0, height: 20.0, restitution: 1.0 };
+        let (metres, ratio) = largest_overlap(&bodies, &field, &mut BroadPhase::new());
+        assert!((metres - 0.01).abs() < 1e-12, "{metres}");
+        assert!((ratio - 0.05).abs() < 1e-9, "{ratio}");
     }
 }
