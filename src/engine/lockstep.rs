@@ -543,8 +543,13 @@ impl Lockstep {
             self.counters.broad_phase += t2 - t1;
             if self.elastic() {
                 let (bodies, grid, elastic) = (&mut self.bodies, &self.broad_phase, &mut self.elastic);
+                // Impacts struck at once are solved together above the settling ramp's top
+                // (`physics::settling`: full restitution from 40 impact thresholds, 20·g·h); a
+                // resting pile's contacts, approaching at about g·h, go one by one.
+                let g = self.effects.gravity.map_or(0.0, |g| g.g.length());
+                let together = 20.0 * g * h;
                 let impulses = in_pool(pool, || {
-                    elastic.solve(bodies, grid, collisions.restitution, h, ELASTIC_PASSES, pool.is_some())
+                    elastic.solve(bodies, grid, collisions.restitution, h, together, ELASTIC_PASSES, pool.is_some())
                 });
                 self.counters.impulses += impulses;
                 self.counters.contacts += t2.elapsed();

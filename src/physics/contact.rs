@@ -113,6 +113,25 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     Some(BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b })
 }
 
+/// How long before the end of a step of `dt` the overlapping pair a, b touched, if it approached
+/// into its overlap within the step: the time [`contact_ball_ball`] replays the collision over
+/// (`None` where it pushes the pair apart instead: resting, or overlapping from the start).
+#[inline]
+pub fn time_since_contact(a: &ContactBody, b: &ContactBody, normal: DVec2, dt: f64) -> Option<f64> {
+    let d = b.position - a.position;
+    let reach = a.radius + b.radius;
+    let dist2 = d.length_squared();
+    let penetration = reach - dist2.sqrt();
+    let u = b.velocity - a.velocity;
+    let v_rel = u.dot(normal);
+    if !(v_rel < 0.0 && penetration <= -v_rel * dt) {
+        return None;
+    }
+    let (uu, du) = (u.length_squared(), d.dot(u));
+    let disc = du * du - uu * (dist2 - reach * reach);
+    Some(if uu > 0.0 && disc >= 0.0 { ((du + disc.sqrt()) / uu).max(0.0) } else { penetration / -v_rel })
+}
+
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's
 /// surface from the wall (negative: past it), `u` the normal velocity (negative: outwards), `alpha`
 /// the normal component of the ball's constant acceleration during the step. Returns the new
