@@ -194,6 +194,18 @@ impl ElasticContacts {
     }
 }
 
+/// Ball `f` of `fixed` as the contact functions take it, its state at `x[s]`, `v[s]`.
+#[inline(always)]
+fn contact_body(fixed: Fixed<'_>, x: &[DVec2], v: &[DVec2], f: usize, s: usize) -> ContactBody {
+    ContactBody {
+        id: fixed.id[f],
+        position: x[s],
+        velocity: v[s],
+        inverse_mass: fixed.inverse_mass[f],
+        radius: fixed.radius[f],
+    }
+}
+
 /// One pass over `pairs`. `index(k)` maps a slot to (index into `fixed`, index into `x`/`v`).
 /// With `together` (a sub-step's first pass), pairs that approach into an overlap faster than it
 /// and share a ball with another such pair are struck at once (see [`strike_together`]); every
@@ -232,13 +244,7 @@ fn solve_pairs(
             }
         }
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
-        let body = |f: usize, s: usize| ContactBody {
-            id: fixed.id[f],
-            position: x[s],
-            velocity: v[s],
-            inverse_mass: fixed.inverse_mass[f],
-            radius: fixed.radius[f],
-        };
+        let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         if let Some(c) = contact_ball_ball(&body(fi, i), &body(fj, j), e, dt) {
             if c.impulse > 0.0 {
                 v[i] += c.velocity_change_a;
@@ -365,13 +371,7 @@ fn strike_together(
     for &n in group {
         let (k, m) = pairs[n as usize];
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
-        let body = |f: usize, s: usize| ContactBody {
-            id: fixed.id[f],
-            position: x[s],
-            velocity: v[s],
-            inverse_mass: fixed.inverse_mass[f],
-            radius: fixed.radius[f],
-        };
+        let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         let (a, b) = (body(fi, i), body(fj, j));
         let Some(c) = contact_ball_ball(&a, &b, e, dt) else { continue };
         tally.active += 1;
