@@ -43,6 +43,10 @@ pub struct BallBallContact {
     pub shift_a: DVec2,
     /// b's share of the position correction (see `shift_a`), m.
     pub shift_b: DVec2,
+    /// How long before the end of the step the pair touched, when the collision is replayed from
+    /// that instant (the shifts are then each ball's `Δv·τ`); `None` when the pair is pushed apart
+    /// instead (resting, or overlapping from the start).
+    pub replayed: Option<f64>,
 }
 
 /// The normal used when two centres coincide (or nearly so): a fixed direction chosen from the
@@ -102,34 +106,25 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     let impulse = if v_rel < 0.0 { -(1.0 + restitution) * v_rel / w } else { 0.0 };
     let velocity_change_a = -impulse * a.inverse_mass * normal;
     let velocity_change_b = impulse * b.inverse_mass * normal;
-    let (shift_a, shift_b) = if v_rel < 0.0 && penetration <= -v_rel * dt {
+    let replayed = (v_rel < 0.0 && penetration <= -v_rel * dt).then(|| {
         // The time since contact along the relative motion (exact for head-on, where it is
         // penetration / |v_rel|).
-        let tau = if uu > 0.0 && disc >= 0.0 { ((du + disc.sqrt()) / uu).max(0.0) } else { penetration / -v_rel };
-        (velocity_change_a * tau, velocity_change_b * tau)
-    } else {
-        (-penetration * (a.inverse_mass / w) * normal, penetration * (b.inverse_mass / w) * normal)
+        if uu > 0.0 && disc >= 0.0 { ((du + disc.sqrt()) / uu).max(0.0) } else { penetration / -v_rel }
+    });
+    let (shift_a, shift_b) = match replayed {
+        Some(tau) => (velocity_change_a * tau, velocity_change_b * tau),
+        None => (-penetration * (a.inverse_mass / w) * normal, penetration * (b.inverse_mass / w) * normal),
     };
-    Some(BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b })
-}
-
-/// How long before the end of a step of `dt` the overlapping pair a, b touched, if it approached
-/// into its overlap within the step: the time [`contact_ball_ball`] replays the collision over
-/// (`None` where it pushes the pair apart instead: resting, or overlapping from the start).
-#[inline]
-pub fn time_since_contact(a: &ContactBody, b: &ContactBody, normal: DVec2, dt: f64) -> Option<f64> {
-    let d = b.position - a.position;
-    let reach = a.radius + b.radius;
-    let dist2 = d.length_squared();
-    let penetration = reach - dist2.sqrt();
-    let u = b.velocity - a.velocity;
-    let v_rel = u.dot(normal);
-    if !(v_rel < 0.0 && penetration <= -v_rel * dt) {
-        return None;
-    }
-    let (uu, du) = (u.length_squared(), d.dot(u));
-    let disc = du * du - uu * (dist2 - reach * reach);
-    Some(if uu > 0.0 && disc >= 0.0 { ((du + disc.sqrt()) / uu).max(0.0) } else { penetration / -v_rel })
+    Some(BallBallContact {
+        normal,
+        penetration,
+        impulse,
+        velocity_change_a,
+        velocity_change_b,
+        shift_a,
+        shift_b,
+        replayed,
+    })
 }
 
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's

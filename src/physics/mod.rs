@@ -26,9 +26,7 @@ pub use ball_steps::{BallSteps, advance_ball};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
-pub use contact::{
-    BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall, time_since_contact,
-};
+pub use contact::{BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall};
 pub use contact_solver::{
     BallResponse, Contact, ContactParams, ContactSolver, ImpactScratch, ImpactTally, MAX_IMPACT_ROUNDS,
     MAX_POSITION_PASSES, MAX_REDETECTIONS, MAX_RESTING_PASSES, MAX_ROUND_ITERATIONS, NEVER, RESTED, SolveTally,

@@ -32,9 +32,7 @@ use rayon::prelude::*;
 
 use super::PARALLEL_MIN_PAIRS;
 use super::contact_solver::{Fixed, SlotBodies, split_runs};
-use crate::physics::{
-    Bodies, BroadPhase, ContactBody, RoundContact, contact_ball_ball, solve_simultaneous, time_since_contact,
-};
+use crate::physics::{Bodies, BroadPhase, ContactBody, RoundContact, contact_ball_ball, solve_simultaneous};
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -223,24 +221,25 @@ fn solve_pairs(
     index: impl Fn(usize) -> (usize, usize),
 ) -> Tally {
     let mut tally = Tally::default();
-    let mut groups = together.map_or_else(Vec::new, |speed| simultaneous(pairs, fixed, x, v, speed, &index));
-    // Per pair: 0 alone, 1 struck with its group, 2 its group taken one by one.
-    let mut struck = vec![0u8; if groups.is_empty() { 0 } else { pairs.len() }];
+    let groups = together.map_or_else(Vec::new, |speed| simultaneous(pairs, fixed, x, v, speed, &index));
+    // Per pair, its group (or none); per group, whether it was struck at once (`None`: not yet
+    // met in the pass; `Some(false)`: taken one by one).
+    let mut group_of = vec![u32::MAX; if groups.is_empty() { 0 } else { pairs.len() }];
+    for (g, group) in groups.iter().enumerate() {
+        for &n in group {
+            group_of[n as usize] = g as u32;
+        }
+    }
+    let mut together_done: Vec<Option<bool>> = vec![None; groups.len()];
     for (n, &(k, m)) in pairs.iter().enumerate() {
-        if !groups.is_empty() && struck[n] != 2 {
-            if struck[n] == 1 {
+        if let Some(&g) = group_of.get(n).filter(|&&g| g != u32::MAX) {
+            let g = g as usize;
+            let done = *together_done[g].get_or_insert_with(|| {
+                let strike = strike_together(pairs, &groups[g], fixed, x, v, e, dt, &index);
+                strike.inspect(|t| tally = tally + *t).is_some()
+            });
+            if done {
                 continue;
-            }
-            if let Some(g) = groups.iter().position(|g| g.contains(&(n as u32))) {
-                let group = std::mem::take(&mut groups[g]);
-                let done = strike_together(pairs, &group, fixed, x, v, e, dt, &index);
-                for &p in &group {
-                    struck[p as usize] = if done.is_some() { 1 } else { 2 };
-                }
-                if let Some(t) = done {
-                    tally = tally + t;
-                    continue;
-                }
             }
         }
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
@@ -376,7 +375,7 @@ fn strike_together(
         let Some(c) = contact_ball_ball(&a, &b, e, dt) else { continue };
         tally.active += 1;
         let (la, lb) = (local(&mut balls, &mut tau, i), local(&mut balls, &mut tau, j));
-        match time_since_contact(&a, &b, c.normal, dt) {
+        match c.replayed {
             Some(t) => {
                 tau[la] = tau[la].max(t);
                 tau[lb] = tau[lb].max(t);
@@ -386,7 +385,7 @@ fn strike_together(
             None => pushes.extend([(i, c.shift_a), (j, c.shift_b)]),
         }
         if c.impulse > 0.0 {
-            if time_since_contact(&a, &b, c.normal, dt).is_some() {
+            if c.replayed.is_some() {
                 replayed += 1;
             } else {
                 pushed += 1;
