@@ -101,14 +101,18 @@ fn report(label: &str, r: &Replay) -> f64 {
 }
 
 /// Asserts that `replay` (2,000 spans) rested as the pile does over 2,000 fixed spans of 1 ms
-/// (the lockstep case): the largest kinetic energy of its second half within 3 times theirs and
-/// below 1e-6 J (every ball at 0.12 mm/s), the floor carrying the weight to 1e-4.
+/// (the lockstep case): the largest kinetic energy of its second half within 4 times theirs and
+/// below 1e-7 J (every ball at 0.04 mm/s), the floor carrying the weight to 1e-4.
+///
+/// (Since every ball near a wall has its wall contact in every span, 2026-12-05, the fixed spans
+/// rest at 1.3e-8 J, not 6.6e-7 J: the bound in joules went from 1e-6 to 1e-7 and the ratio from
+/// 3 to 4 — the late spans' 4.2e-8 J is 3.4 times the far quieter reference.)
 fn rests_as_over_fixed_spans(pile: &Bodies, field: ballfield::physics::Field, label: &str, replayed: &Replay) {
     let fixed = replay(pile, field, 2000, |_| 1e-3, semi_implicit);
     let reference = report("fixed 1 ms", &fixed);
     let largest = report(label, replayed);
-    assert!(largest < 3.0 * reference, "{label}: {largest} J against {reference} J over fixed spans");
-    assert!(largest < 1e-6, "{label}: {largest} J");
+    assert!(largest < 4.0 * reference, "{label}: {largest} J against {reference} J over fixed spans");
+    assert!(largest < 1e-7, "{label}: {largest} J");
     assert!(
         (replayed.floor_ratio - 1.0).abs() < 1e-4,
         "{label}: the floor took {} of the weight",
@@ -118,11 +122,10 @@ fn rests_as_over_fixed_spans(pile: &Bodies, field: ballfield::physics::Field, la
 
 /// Over 2,000 spans of 1 ms with one in four of 2 ms and one in 97 of 3 ms (a monitor that wakes
 /// late now and then), the settled pile moves no more than over 2,000 fixed 1 ms spans (the
-/// lockstep case): the largest kinetic energy of the second half within 3 times, and below 1e-6
-/// J (every ball at 0.12 mm/s); the floor carries the weight to 1e-4.
+/// lockstep case): see [`rests_as_over_fixed_spans`].
 ///
-/// Measured: fixed spans 5.8e-7 J at most in the second half (the solver starts cold, as the
-/// runtime's does); whole periods 2.0e-7 J; floor 1.000000 for both. Seen to fail with spans
+/// Measured: fixed spans 1.3e-8 J at most in the second half (the solver starts cold, as the
+/// runtime's does); whole periods 3.6e-10 J; floor 1.000000 for both. Seen to fail with spans
 /// that follow the wake-ups instead (0.5 to 1.5 ms, as the monitor judged before it took whole
 /// periods): 1.5e-3 J, every one of the 2,000 solves unconverged.
 #[test]
@@ -154,10 +157,9 @@ fn semi_implicit(substeps: u32) -> f64 {
 
 /// Once in every 100 spans of 1 ms, a span of 4, 10 or 19 ms (a monitor woken that late, judging
 /// the time it missed in one solve, which its balls cross in 4 to 19 steps): the settled pile
-/// still rests, the largest kinetic energy of the second half within 3 times that over fixed
-/// spans and below 1e-6 J, the floor carrying the weight to 1e-4.
+/// still rests (see [`rests_as_over_fixed_spans`]).
 ///
-/// Measured: 3.9e-7 J against 5.8e-7 J over fixed spans, floor 1.000001. Seen to fail with the
+/// Measured: 4.2e-8 J against 1.3e-8 J over fixed spans, floor 1.000000. Seen to fail with the
 /// drift of one step for every span (as the monitor had it): 1.7e-2 J, all 2,000 solves
 /// unconverged — each long span sank the pile by `g·h²·(n − 1)/2n` against its floor, and its
 /// resting solve took hundreds of spans to recover.

@@ -95,6 +95,10 @@ pub struct StepCounters {
     pub unconverged: u64,
     /// Times a ball's speed was capped at [`MAX_SPEED`] (0 in every sane field).
     pub speed_limited: u64,
+    /// Wall bounces of the finish pass (see [`Lockstep::finish_phase`]): with collisions on, balls
+    /// the contact solver left past a wall (0 while it holds every ball it moves); without, every
+    /// wall bounce. Also counted in `wall_contacts`.
+    pub finish_bounces: u64,
     /// Sub-steps whose drag was too stiff even for the shortest sub-step, so the drag pass capped
     /// its rate at 1/h (see [`Forces::set_drag_rate_limit`]; 0 in every sane field).
     pub drag_limited: u64,
@@ -724,6 +728,7 @@ impl Lockstep {
             if t.wall_contacts > 0 {
                 self.wall_impulses.add_all(&t.walls);
                 self.counters.wall_contacts += t.wall_contacts;
+                self.counters.finish_bounces += t.wall_contacts;
             }
             t.walls = WallImpulses::default();
             t.wall_contacts = 0;

@@ -35,8 +35,9 @@ use rayon::prelude::*;
 
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
-    MAX_RESTING_PASSES, RESTED, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls, pair_contact,
-    position_pass, resting_begin, resting_end, resting_pass, resting_warm_start, wall_contact, wall_pass,
+    MAX_RESTING_PASSES, NEVER, RESTED, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls, pair_contact,
+    position_pass, redetect_wall, resting_begin, resting_end, resting_pass, resting_warm_start, wall_contact,
+    wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
@@ -336,11 +337,10 @@ impl ContactSolver {
                     Some(&&(bw, ax, j)) if (bw, ax) == (ball, axis as u8) => j,
                     _ => 0.0,
                 };
-                if let Some(mut c) = wall_contact((i as u32, xi, vi, ai, wi, ri), wall, inputs.field, span) {
-                    c.impulse = impulse;
-                    c.key = ball * 2 + axis as u32;
-                    self.lists[list].push(c);
-                }
+                let mut c = wall_contact((i as u32, xi, vi, ai, wi, ri), wall, inputs.field, span);
+                c.impulse = impulse;
+                c.key = ball * 2 + axis as u32;
+                self.lists[list].push(c);
             }
         }
         let fill = |pairs: &mut Vec<Candidate>, list: &mut Vec<Contact>| {
@@ -370,7 +370,8 @@ impl ContactSolver {
     }
 
     /// Adds the contacts this sub-step's impacts made: candidate pairs with a struck ball that
-    /// had no contact, now touching (see [`MAX_REDETECTIONS`]). Returns how many were added.
+    /// had no contact, now touching, and walls a struck ball now meets ([`redetect_wall`]; see
+    /// [`MAX_REDETECTIONS`]). Returns how many were added.
     fn redetect(
         &mut self,
         x: &[DVec2],
@@ -387,6 +388,12 @@ impl ContactSolver {
             |i: usize| (i as u32, fixed.id[i], x[i], v[i], acceleration(i), fixed.inverse_mass[i], fixed.radius[i]);
         let impact = &self.impact;
         let mut added = 0;
+        for c in self.lists.iter_mut().flatten().filter(|c| c.is_wall() && c.tau == NEVER) {
+            let a = c.a as usize;
+            if impact.struck(a) && redetect_wall(c, x[a], v[a], acceleration(a), inputs.field, inputs.span) {
+                added += 1;
+            }
+        }
         let groups =
             self.band_pairs.iter_mut().chain(self.seam_pairs.iter_mut()).chain(std::iter::once(&mut self.big_pairs));
         for (l, pairs) in groups.enumerate() {
