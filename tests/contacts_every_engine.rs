@@ -444,9 +444,14 @@ fn exact_ball_dropped_on_a_resting_ball_rebounds_as_sequential_impacts_predict()
 /// tops out within 15 ms and lands on B again). A's rebound speed against the chain's, within
 /// `bound` m/s; where `b_bound` is given, B's too where the chain has it leave faster than 1 cm/s
 /// (else B at most that: the rest models hold slower bounces); where `balance` is given, the momentum against the walls' impulses,
-/// `p(t) = p₀ − M·g·t + J_floor − J_top`, within it (relative to M·g·t); e = 0.99 within 5 % of
-/// e = 1 (the chain's own difference is 1.3–3.7 %: each of its impacts loses 2 % of its energy);
-/// and once with B in the floor's corner, touching the side wall too.
+/// `p(t) = p₀ − M·g·t + J_floor − J_top`, within it (relative to M·g·t); e = 0.99 apart from
+/// e = 1 as the chain's own two are, within twice `bound` (the chain's own difference is 1.3–3.7 %
+/// for masses 5 to 1 apart, 6.9 % for A 20 times B's mass: each of its impacts loses 2 % of its
+/// energy, and a heavy A strikes a light B about π·√(m_A/m_B) times; within 5 % of each other,
+/// as this asked before the 20:1 case, the chain itself is not); and once with B in the floor's
+/// corner, touching the side wall too. The masses: B 5
+/// times lighter, as heavy, 5 times heavier, and 20 times lighter (the chain of 14 impacts that
+/// lockstep's elastic passes left at 4 before its walls came between the passes, 2026-12-05).
 fn drop_sweep(kind: EngineKind, bound: f64, balance_bound: Option<f64>, b_bound: Option<f64>) {
     drop_sweep_from(kind, 1.0, bound, balance_bound, b_bound, false);
 }
@@ -516,15 +521,18 @@ fn drop_sweep_from(
         check!(failures, walls.left + walls.right == 0.0, "{kind} e {e}: a side wall was struck");
         measured
     };
-    for (ma, mb) in [(1.0, 1.0), (1.0, 0.2), (0.2, 1.0)] {
+    for (ma, mb) in [(1.0, 1.0), (1.0, 0.2), (0.2, 1.0), (20.0, 1.0)] {
         for e in [0.0, 0.3, 0.8] {
             at(e, ma, mb, 5.0, &mut failures);
         }
         let (near, one) = (at(0.99, ma, mb, 5.0, &mut failures), at(1.0, ma, mb, 5.0, &mut failures));
+        let arrival = -(2.0 * G * fall).sqrt();
+        let chain = |e: f64| sequential_impacts(arrival, 0.0, ma, mb, e, e).max(0.0);
+        let (chain_near, chain_one) = (chain(0.99), chain(1.0));
         check!(
             failures,
-            (near - one).abs() <= 0.05 * one,
-            "{kind} ma {ma} mb {mb}: e = 0.99 gives {near}, e = 1 {one}"
+            ((near - one) - (chain_near - chain_one)).abs() <= 2.0 * bound,
+            "{kind} ma {ma} mb {mb}: e = 0.99 gives {near}, e = 1 {one}; the chain {chain_near}, {chain_one}"
         );
     }
     // B in the floor's corner, touching the side wall too: A rebounds the same.
@@ -545,8 +553,10 @@ fn exact_drop_on_a_resting_ball_is_the_chain_at_every_restitution_and_mass_ratio
 
 /// [`drop_sweep`] on lockstep (dt = 1 ms): its approach is off by up to g·dt (see the e = 0.8 case
 /// above). Measured: 0 (e = 0) to 1.02e-2 m/s low (e = 0.99), at most 1.04·g·dt; 4.2e-3 m/s high at
-/// e = 1 onto a lighter B; the balance to 5.9e-15. Bound 1.2·g·dt. Seen to fail with (β): A at 0
-/// wherever the chain rebounds. (B is not checked: lockstep's settling ramp holds B's slow last
+/// e = 1 onto a lighter B; the balance to 5.9e-15; A 20 times B's mass: 9.9e-3 m/s low at
+/// e = 0.99, 7.1e-5 m/s at e = 1. Bound 1.2·g·dt. Seen to fail with (β): A at 0 wherever the
+/// chain rebounds; and with the walls left out of the elastic passes (as before 2026-12-05): at
+/// e = 1, A 20 times B's mass, A at 3.86 m/s against the chain's 4.42 (B at 9.7 against 1.2). (B is not checked: lockstep's settling ramp holds B's slow last
 /// bounces, 6 cm/s at e = 0.8, that the chain gives, and B is up to 4e-2 m/s off elsewhere.)
 #[test]
 fn lockstep_drop_on_a_resting_ball_is_the_chain_at_every_restitution_and_mass_ratio() {
@@ -554,8 +564,8 @@ fn lockstep_drop_on_a_resting_ball_is_the_chain_at_every_restitution_and_mass_ra
 }
 
 /// [`drop_sweep`] on the threaded engine, within g·3.5 ms as the e = 0.8 case above. Measured: 0
-/// (e = 0) to 1.03e-2 m/s low, within 1e-5 m/s of lockstep's figures but at e = 1 (3e-3 m/s lower);
-/// the balance is not checked (its balls stand at slightly different instants: 4e-5–9e-5).
+/// (e = 0) to 1.03e-2 m/s low, within 1e-5 m/s of lockstep's figures but at e = 1 (3e-3 m/s
+/// lower; A 20 times B's mass, 1.0e-2 m/s low); the balance is not checked (its balls stand at slightly different instants: 4e-5–9e-5).
 #[test]
 fn threaded_drop_on_a_resting_ball_is_the_chain_at_every_restitution_and_mass_ratio() {
     drop_sweep(EngineKind::Threaded, G * 3.5e-3, None, None);

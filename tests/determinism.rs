@@ -61,9 +61,16 @@ fn a_run_continued_from_its_state_file_matches_one_long_run() {
 /// A field big enough that every phase is shared out over threads (more than
 /// `PARALLEL_MIN_BALLS` balls, more than `PARALLEL_MIN_PAIRS` touching pairs, many bands, big
 /// balls): a crowd started overlapping, falling under gravity with drag, two giants in it, and
-/// the key ball pulled. The bits after 200 steps are the same on 1, 2 and 4 threads.
+/// the key ball pulled. The bits after 200 steps are the same on 1, 2 and 4 threads, at e = 0.9
+/// (the contact solver) and at e = 1 (the elastic passes, with the walls met between them).
 #[test]
 fn the_same_bits_on_any_number_of_threads() {
+    for e in [0.9, 1.0] {
+        the_same_bits_on_any_number_of_threads_at(e);
+    }
+}
+
+fn the_same_bits_on_any_number_of_threads_at(e: f64) {
     let text = r#"
         name = "threads"
         [field]
@@ -75,7 +82,7 @@ fn the_same_bits_on_any_number_of_threads() {
         allow-overlap = true
         max-balls = 6000
         [effects]
-        collisions = { restitution = 0.9 }
+        collisions = { restitution = RESTITUTION }
         gravity = { g = [0.0, -9.81] }
         drag = { model = "quadratic", rho = 1.225, cd = 0.47 }
         [key-ball]
@@ -103,7 +110,8 @@ fn the_same_bits_on_any_number_of_threads() {
         gap = -0.01
         region = [0.0, 0.0, 120.0, 60.0]
     "#;
-    let scene = ballfield::Scene::from_toml_str(text, &ballfield::scene::Origin("threads".into())).unwrap();
+    let text = text.replace("RESTITUTION", &format!("{e:?}"));
+    let scene = ballfield::Scene::from_toml_str(&text, &ballfield::scene::Origin("threads".into())).unwrap();
     assert!(scene.balls.len() >= ballfield::lockstep::PARALLEL_MIN_BALLS);
     let run = |threads: usize| {
         let mut engine = Lockstep::new(&scene);
@@ -119,6 +127,6 @@ fn the_same_bits_on_any_number_of_threads() {
         (engine.state_hash(), engine.wall_impulses())
     };
     let one = run(1);
-    assert_eq!(run(2), one, "2 threads");
-    assert_eq!(run(4), one, "4 threads");
+    assert_eq!(run(2), one, "e {e}: 2 threads");
+    assert_eq!(run(4), one, "e {e}: 4 threads");
 }

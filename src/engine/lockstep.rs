@@ -45,7 +45,7 @@ use crate::physics::{MAX_SPEED, MAX_TRAVEL};
 use crate::scene::Scene;
 pub use contact_solver::PARALLEL_MIN_PAIRS;
 use contact_solver::{ContactSolver, Inputs};
-use elastic_contacts::ElasticContacts;
+use elastic_contacts::{ElasticContacts, ElasticWalls};
 
 /// Passes of the elastic contacts over the touching pairs in each (sub-)step.
 const ELASTIC_PASSES: usize = 4;
@@ -550,12 +550,30 @@ impl Lockstep {
                 // Impacts struck at once are solved together above the settling ramp's top
                 // (`physics::settling`: full restitution from 40 impact thresholds, 20·g·h); a
                 // resting pile's contacts, approaching at about g·h, go one by one.
-                let g = self.effects.gravity.map_or(0.0, |g| g.g.length());
-                let together = 20.0 * g * h;
-                let impulses = in_pool(pool, || {
-                    elastic.solve(bodies, grid, collisions.restitution, h, together, ELASTIC_PASSES, pool.is_some())
+                let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+                let together = 20.0 * gravity.length() * h;
+                let key = bodies.key_index();
+                let walls = ElasticWalls {
+                    field: &self.field,
+                    gravity,
+                    key,
+                    key_acceleration: key.map_or(DVec2::ZERO, |k| self.pull * bodies.inverse_mass[k]),
+                };
+                let outcome = in_pool(pool, || {
+                    elastic.solve(
+                        bodies,
+                        grid,
+                        &walls,
+                        collisions.restitution,
+                        h,
+                        together,
+                        ELASTIC_PASSES,
+                        pool.is_some(),
+                    )
                 });
-                self.counters.impulses += impulses;
+                self.counters.impulses += outcome.impulses;
+                self.counters.wall_contacts += outcome.wall_bounces;
+                self.wall_impulses.add_all(&outcome.walls);
                 self.counters.contacts += t2.elapsed();
                 let t3 = Instant::now();
                 self.finish_phase(pool);
@@ -630,7 +648,8 @@ impl Lockstep {
         let Bodies { position, velocity, mass, inverse_mass, diameter, radius, .. } = &mut self.bodies;
         let (mass, inverse_mass, diameter, radius) = (&mass[..], &inverse_mass[..], &diameter[..], &radius[..]);
         let field = &self.field;
-        // Only the inelastic contact solver takes the walls as contacts.
+        // Only the inelastic contact solver takes the walls as contacts (the elastic passes meet
+        // the walls of the balls they strike, which they know themselves).
         let collisions = self.effects.collisions.is_some() && !elastic;
         let step = local.then_some(LocalStep {
             method,

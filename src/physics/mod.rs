@@ -54,6 +54,6 @@ pub use forces::{
 };
 pub use impact_round::{RoundContact, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
-pub use sleep::{Islands, TIME_TO_SLEEP, is_quiet, sleep_speed};
+pub use sleep::{Islands, TIME_TO_SLEEP, held_wall_forces, is_quiet, sleep_speed};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

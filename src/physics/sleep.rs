@@ -28,6 +28,36 @@ pub fn is_quiet(v: DVec2, diameter: f64, acceleration: DVec2, gravity: DVec2, st
     !struck && acceleration == gravity && v.is_finite() && v.length() < sleep_speed(diameter)
 }
 
+/// The forces (N; left, right, bottom, top) the walls carry for an island asleep, of weight
+/// `weight` (its mass times gravity, N): what they carried on average while it was quiet
+/// (`measured`), each pair of opposite walls made to hold the island's weight exactly. An island
+/// at rest takes from its walls exactly what holds it still, but the averages do not add up to
+/// that: each ball's stretch of quiet begins when it itself fell quiet, and the load moves
+/// between balls while the pile settles (a small pile asleep after a ball landed on it read
+/// 0.9975 of its weight on the floor). A pair of walls keeps its measured sum (a frictionless
+/// pile's push on the side walls is that pair's own business); its difference becomes the
+/// weight's component, neither wall below zero. A pair that carried nothing is left so.
+pub fn held_wall_forces(measured: [f64; 4], weight: DVec2) -> [f64; 4] {
+    let hold = |low: f64, high: f64, need: f64| {
+        let sum = low + high;
+        if sum <= 0.0 {
+            return (low, high);
+        }
+        let (low, high) = (0.5 * (sum + need), 0.5 * (sum - need));
+        if high < 0.0 {
+            (need, 0.0)
+        } else if low < 0.0 {
+            (0.0, -need)
+        } else {
+            (low, high)
+        }
+    };
+    // The left and bottom walls push along +x and +y, the others against.
+    let (left, right) = hold(measured[0], measured[1], -weight.x);
+    let (bottom, top) = hold(measured[2], measured[3], -weight.y);
+    [left, right, bottom, top]
+}
+
 /// The islands of `n` balls joined by touching pairs: a union–find with path halving and union by
 /// size, reused from pass to pass.
 #[derive(Clone, Debug, Default)]
@@ -70,6 +100,19 @@ impl Islands {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The walls of an island asleep hold its weight exactly: a floor that read 0.9975 of it
+    /// carries it all, the side walls keep their sum and share it; a pair that carried nothing
+    /// stays at zero.
+    #[test]
+    fn an_island_asleep_is_held_by_its_walls_exactly() {
+        let weight = DVec2::new(0.0, -100.0);
+        let held = held_wall_forces([3.0, 5.0, 99.75, 0.0], weight);
+        assert_eq!(held, [4.0, 4.0, 100.0, 0.0]);
+        // A pile pressed against the top as well keeps the floor's and the top's sum.
+        assert_eq!(held_wall_forces([0.0, 0.0, 130.0, 20.0], weight), [0.0, 0.0, 125.0, 25.0]);
+        assert_eq!(held_wall_forces([0.0, 0.0, 0.0, 0.0], weight), [0.0; 4]);
+    }
 
     #[test]
     fn islands_are_the_connected_sets_of_touching_pairs() {

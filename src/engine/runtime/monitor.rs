@@ -65,8 +65,8 @@ use super::table::BallRecord;
 use crate::physics::{
     Attraction, AttractionMethod, Ball, BallProps, BallResponse, BroadPhase, ContactParams, ContactSolver, Drag,
     DragRateBound, Effects, Field, Forces, Integrator, IntegratorScratch, Islands, NoOtherBalls, SolverBall, SpanRates,
-    StepPolicy, TIME_TO_SLEEP, TREE_MIN_BALLS, WallImpulses, WarmKey, advance_ball, is_quiet, resting_drift,
-    swept_circle,
+    StepPolicy, TIME_TO_SLEEP, TREE_MIN_BALLS, WallImpulses, WarmKey, advance_ball, held_wall_forces, is_quiet,
+    resting_drift, swept_circle,
 };
 
 /// The ball inboxes by slot. Written (write lock) by the runtime when a ball is added or removed;
@@ -588,6 +588,8 @@ struct ContactPass {
     island_touches: Vec<bool>,
     island_members: Vec<Vec<usize>>,
     island_force: Vec<[f64; 4]>,
+    /// Per island (by root), the mass of its balls (kg).
+    island_mass: Vec<f64>,
     island_warm: Vec<Vec<(WarmKey, f64)>>,
     sleep_now: Vec<bool>,
     /// Messages sent, dropped and sent by channel this pass (added to the statistics once).
@@ -628,6 +630,7 @@ impl ContactPass {
             island_members: Vec::new(),
             island_warm: Vec::new(),
             island_force: Vec::new(),
+            island_mass: Vec::new(),
             sleep_now: Vec::new(),
             sent: 0,
             dropped: 0,
@@ -962,6 +965,8 @@ impl ContactPass {
         self.island_members.resize_with(n, Vec::new);
         self.island_force.clear();
         self.island_force.resize(n, [0.0; 4]);
+        self.island_mass.clear();
+        self.island_mass.resize(n, 0.0);
         let mut roots = Vec::new();
         for i in 0..n {
             let root = self.islands.find(i as u32) as usize;
@@ -975,6 +980,7 @@ impl ContactPass {
             for (f, j) in self.island_force[root].iter_mut().zip(w.walls) {
                 *f += j / quiet;
             }
+            self.island_mass[root] += 1.0 / self.balls[i].inverse_mass;
             if self.island_members[root].is_empty() {
                 roots.push(root);
             }
@@ -996,7 +1002,8 @@ impl ContactPass {
         for root in roots {
             let members = std::mem::take(&mut self.island_members[root]);
             let warm = WarmStart { impulses: std::mem::take(&mut self.island_warm[root]), span };
-            self.book.put_to_sleep(members, self.island_force[root], warm);
+            let force = held_wall_forces(self.island_force[root], self.island_mass[root] * gravity);
+            self.book.put_to_sleep(members, force, warm);
         }
     }
 
