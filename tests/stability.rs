@@ -345,3 +345,58 @@ fn slow_fields_take_no_extra_substeps() {
     e.step();
     assert_eq!(e.counters().substeps, 3, "600 m/s · 1 ms = 0.6 m = 1.2 radii: 3 half-radius sub-steps");
 }
+
+/// Case 5b: A light ball squeezed between a wall and a heavy one: 2 cm balls, 1 kg at 35 m/s and
+/// 100 kg (or 1,000 kg) at −35 m/s, in a 10 m box without gravity, at e = 0, 0.5 and 1 (balls and
+/// walls). The light ball rattles between the wall and the heavy ball, faster and faster as the
+/// gap closes; it must never end up beyond the heavy ball, nor either leave the field, and
+/// momentum changes only by what the walls give. On lockstep, checked every step for 0.3 s.
+///
+/// Measured: the order kept in every case; after 0.3 s at e = 0.5 both rest on the wall (100 kg)
+/// or the heavy one leaves at 0.29 m/s (1,000 kg), at e = 1 it leaves at 34.1 / 34.9 m/s. Not
+/// right yet, and not asserted: at e = 0 the heavy ball should come to rest against the light one
+/// (every impact of the chain plastic) but leaves at 0.097 m/s (100 kg) and 3.0 m/s (1,000 kg).
+/// Not investigated; a suspect is the resting contacts' Gauss–Seidel passes, which gain only a
+/// factor m_light/m_heavy a pass on such a chain. Seen to fail before every ball near a wall had its
+/// wall contact in every sub-step (2026-12-05, `physics::wall_contact`): at e = 0.5 the light
+/// ball ended beyond the heavy one (x = 0.078 against 0.050 m), the two moving off together at
+/// 13.66 m/s.
+#[test]
+fn a_light_ball_squeezed_against_a_wall_stays_on_its_side() {
+    for heavy in [100.0, 1000.0] {
+        for e in [0.0, 0.5, 1.0] {
+            let text = format!(
+                "name = \"squeeze\"\n[field]\nwidth = 10.0\nheight = 10.0\nrestitution = {e:?}\n\
+                 [simulation]\ndt = 0.001\n[effects]\ncollisions = {{ restitution = {e:?} }}\n\
+                 [[balls]]\nposition = [3.0, 5.9]\nvelocity = [35.0, 0.0]\nmass = 1.0\ndiameter = 0.02\n\
+                 [[balls]]\nposition = [6.7, 5.9]\nvelocity = [-35.0, 0.0]\nmass = {heavy:?}\ndiameter = 0.02\n"
+            );
+            let scene = ballfield::Scene::from_toml_str(&text, &ballfield::scene::Origin("squeeze".into())).unwrap();
+            let mut engine = Lockstep::new(&scene);
+            let p0 = DVec2::from(engine.diagnostics().momentum);
+            for _ in 0..300 {
+                engine.step();
+                let b = engine.bodies();
+                let (light, heavy_x) = (b.position[0].x, b.position[1].x);
+                assert!(
+                    light < heavy_x,
+                    "heavy {heavy} e {e}, t = {:.3}: the light ball at x = {light} is beyond the heavy one at {heavy_x}",
+                    engine.time()
+                );
+                assert!(
+                    light >= 0.01 - 1e-9 && heavy_x <= 10.0 - 0.01 + 1e-9,
+                    "heavy {heavy} e {e}: a ball left the field"
+                );
+                let d = engine.diagnostics();
+                sane(&d);
+                let dp = DVec2::from(d.momentum) - p0 - d.wall_impulses.momentum_given();
+                assert!(dp.length() <= 1e-9 * heavy * 35.0, "heavy {heavy} e {e}: momentum off by {dp}");
+            }
+            let b = engine.bodies();
+            eprintln!(
+                "heavy {heavy} e {e}: light at {:.6} m, {:.4} m/s; heavy at {:.6} m, {:.4} m/s",
+                b.position[0].x, b.velocity[0].x, b.position[1].x, b.velocity[1].x
+            );
+        }
+    }
+}
