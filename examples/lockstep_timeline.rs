@@ -46,9 +46,9 @@ fn main() -> ExitCode {
     let per_row = (0.5 / engine.dt()).round().max(1.0) as u64;
     let mut last = *engine.counters();
     println!(
-        "| s | kinetic J | overlap % | fastest m/s | at a cap | impacts | wall contacts | resting | finish bounces | wall s |"
+        "| s | kinetic J | overlap % | fastest m/s | at a cap | islands solved | impacts | wall contacts | resting | finish bounces | wall s |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     while engine.time() < args.seconds - 1e-9 {
         let started = Instant::now();
         engine.run(per_row);
@@ -57,12 +57,13 @@ fn main() -> ExitCode {
         let d = engine.diagnostics();
         let fastest = engine.bodies().velocity.iter().map(|v| v.length()).fold(0.0, f64::max);
         println!(
-            "| {:.1} | {:.3e} | {:.3} | {:.3e} | {} | {} | {} | {} | {} | {:.2} |",
+            "| {:.1} | {:.3e} | {:.3} | {:.3e} | {} | {} | {} | {} | {} | {} | {:.2} |",
             engine.time(),
             d.kinetic,
             100.0 * d.largest_overlap_ratio,
             fastest,
             c.unconverged - last.unconverged,
+            c.islands_solved - last.islands_solved,
             c.impulses - last.impulses,
             c.wall_contacts - last.wall_contacts,
             c.resting - last.resting,

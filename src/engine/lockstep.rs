@@ -99,6 +99,9 @@ pub struct StepCounters {
     /// the contact solver left past a wall (0 while it holds every ball it moves); without, every
     /// wall bounce. Also counted in `wall_contacts`.
     pub finish_bounces: u64,
+    /// Islands of resting contacts solved directly after the resting passes reached their cap
+    /// (see `physics::solve_resting_islands`).
+    pub islands_solved: u64,
     /// Sub-steps whose drag was too stiff even for the shortest sub-step, so the drag pass capped
     /// its rate at 1/h (see [`Forces::set_drag_rate_limit`]; 0 in every sane field).
     pub drag_limited: u64,
@@ -602,6 +605,7 @@ impl Lockstep {
             self.counters.wall_contacts += outcome.wall_contacts;
             self.counters.resting += outcome.resting;
             self.counters.unconverged += u64::from(!outcome.converged);
+            self.counters.islands_solved += outcome.islands_solved;
             self.wall_impulses.add_all(&outcome.walls);
             self.counters.contacts += t2.elapsed();
         }

@@ -57,6 +57,7 @@ use super::contact::coincident_normal;
 use super::field::{Field, Wall, WallImpulses};
 use super::impact_round::{RoundContact, solve_simultaneous};
 use super::integrator::Integrator;
+use super::resting_island::{RestingIslands, solve_resting_islands};
 use super::step_policy::MAX_TRAVEL;
 
 /// Gap, relative to the contact distance, within which two balls (or a ball and a wall) still
@@ -175,6 +176,9 @@ pub struct SolveTally {
     pub resting_passes: u32,
     /// Passes of the position phase.
     pub position_passes: u32,
+    /// Islands of resting contacts solved directly after the passes reached their cap (see
+    /// [`solve_resting_islands`]).
+    pub islands_solved: u64,
     /// False when an iteration cap was reached (the state is still valid, only less exact).
     pub converged: bool,
 }
@@ -1179,6 +1183,8 @@ pub struct ContactSolver {
     sub_walls: Vec<[f64; 4]>,
     /// Whether the last call went in sub-spans (its wall impulses are then `sub_walls`).
     sub_spanned: bool,
+    /// Scratch of the islands solved directly.
+    islands: RestingIslands,
 }
 
 impl ContactSolver {
@@ -1314,6 +1320,7 @@ impl ContactSolver {
             tally.impact_rounds += t.impact_rounds;
             tally.resting_passes += t.resting_passes;
             tally.position_passes += t.position_passes;
+            tally.islands_solved += t.islands_solved;
             tally.converged &= t.converged;
             let walls = &mut self.sub_walls;
             for c in self.lists.iter().flatten().filter(|c| c.is_wall()) {
@@ -1583,6 +1590,10 @@ impl ContactSolver {
         // Row k is the contact in the low bits of the k-th key (see `order_by_height`).
         for (r, &key) in self.rows.iter().zip(&self.order) {
             list[key as u32 as usize].impulse = r.impulse;
+        }
+        if tally.resting_passes == MAX_RESTING_PASSES {
+            tally.islands_solved =
+                solve_resting_islands(&mut self.lists, &mut self.velocity, n, tolerance.resting, &mut self.islands);
         }
     }
 

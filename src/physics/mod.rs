@@ -17,6 +17,7 @@ mod field;
 mod forces;
 mod impact_round;
 mod integrator;
+mod resting_island;
 mod sleep;
 mod step_policy;
 mod sweep;
@@ -54,6 +55,7 @@ pub use forces::{
 };
 pub use impact_round::{RoundContact, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
+pub use resting_island::{MAX_ISLAND_CONTACTS, RestingIslands, solve_resting_islands};
 pub use sleep::{Islands, TIME_TO_SLEEP, held_wall_forces, is_quiet, sleep_speed};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

@@ -35,9 +35,9 @@ use rayon::prelude::*;
 
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
-    MAX_RESTING_PASSES, NEVER, RESTED, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls, pair_contact,
-    position_pass, redetect_wall, resting_begin, resting_end, resting_pass, resting_warm_start, wall_contact,
-    wall_pass,
+    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls,
+    pair_contact, position_pass, redetect_wall, resting_begin, resting_end, resting_pass, resting_warm_start,
+    solve_resting_islands, wall_contact, wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
@@ -69,6 +69,9 @@ pub struct Outcome {
     pub rounds: u32,
     pub resting_passes: u32,
     pub position_passes: u32,
+    /// Islands of resting contacts solved directly after the passes reached their cap (see
+    /// `physics::solve_resting_islands`).
+    pub islands_solved: u64,
 }
 
 /// The per-sub-step inputs besides the balls.
@@ -108,6 +111,8 @@ pub struct ContactSolver {
     band_start: Vec<usize>,
     /// The key ball's index into the sub-step's working arrays.
     key_working: Option<usize>,
+    /// Scratch of the islands solved directly.
+    islands: RestingIslands,
 }
 
 /// The balls in slot order, the copy the parallel phases work on (both lockstep contact paths).
@@ -503,6 +508,11 @@ impl ContactSolver {
                 }
                 if passes == MAX_RESTING_PASSES {
                     outcome.converged = false;
+                    // Serial, over the whole arrays: each island's contacts in list order, the
+                    // same bits on any number of threads.
+                    let n = v.len();
+                    outcome.islands_solved =
+                        solve_resting_islands(&mut self.lists, v, n, inputs.tolerances.resting, &mut self.islands);
                     break;
                 }
             }
