@@ -11,8 +11,10 @@
 //! and the last call's impulses, keyed by ball ids, to warm-start the next call. The lockstep
 //! engine drives the same phases band by band (`src/engine/lockstep/contact_solver.rs`) through the
 //! per-contact functions below ([`pair_contact`], [`wall_contact`], [`impact_phase`],
-//! [`resting_begin`], [`resting_pass`], [`resting_end`], [`position_pass`]), so both engines run
-//! one physics.
+//! [`resting_begin`], [`resting_pass`], [`resting_end`], [`position_pass`], and
+//! [`crate::physics::solve_resting_islands`]), so both engines run one physics. The threaded
+//! monitor's spans are its period long whatever the balls' speed; [`ContactSolver::solve`] cuts
+//! a span fast balls cross into sub-spans as lockstep's step policy cuts its steps.
 //!
 //! **The model.** Balls are rigid; a contact is a unilateral constraint along the line of centres
 //! (walls: infinite mass). Three phases:
@@ -40,7 +42,10 @@
 //!    non-penetration impulse on its end velocity (projected Gauss–Seidel, warm-started from the
 //!    last span, iterated until converged; [`ContactSolver::solve`] sweeps the contacts lowest
 //!    first, lockstep's banded driver in its bands' order: the order changes how fast the passes
-//!    converge, not what they converge to). Such an impulse stands for a steady force over the
+//!    converge, not what they converge to). Where the passes reach their cap, each small island
+//!    of touching balls they left off target is solved directly instead
+//!    ([`crate::physics::solve_resting_islands`]: a light ball pinned by a heavy one is a chain
+//!    the passes gain only `m_light/m_heavy` on a pass). Such an impulse stands for a steady force over the
 //!    span, so it also moves the balls as the integrator would have (`drift`): a resting pile
 //!    stays put to rounding and its floor carries exactly its weight.
 //! 3. **Positions.** Overlaps left over are pushed apart, split by inverse mass, walls immovable,
