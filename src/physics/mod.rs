@@ -30,10 +30,10 @@ pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
 pub use contact::{BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall};
 pub use contact_solver::{
     BallResponse, Contact, ContactParams, ContactSolver, ImpactScratch, ImpactTally, MAX_IMPACT_ROUNDS,
-    MAX_POSITION_PASSES, MAX_REDETECTIONS, MAX_RESTING_PASSES, MAX_ROUND_ITERATIONS, NEVER, RESTED, SolveTally,
-    SolverBall, TOUCH_MARGIN, Tolerances, WALL, WarmKey, impact_phase, near_a_wall, nearer_walls, pair_contact,
-    position_pass, redetect_wall, resting_begin, resting_drift, resting_end, resting_pass, resting_warm_start,
-    settling, wall_contact, wall_pass, wall_plane,
+    MAX_POSITION_PASSES, MAX_REDETECTIONS, MAX_RESTING_PASSES, MAX_ROUND_ITERATIONS, MAX_SUB_SPANS, NEVER, RESTED,
+    SolveTally, SolverBall, TOUCH_MARGIN, Tolerances, WALL, WarmKey, impact_phase, near_a_wall, nearer_walls,
+    pair_contact, position_pass, redetect_wall, resting_begin, resting_drift, resting_end, resting_pass,
+    resting_warm_start, settling, wall_contact, wall_pass, wall_plane,
 };
 pub use diagnostics::{
     Diagnostics, attraction_potential_energy, gravity_potential_energy, kinetic_energy, largest_overlap, measure,
