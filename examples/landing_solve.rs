@@ -27,6 +27,9 @@ use ballfield::{Scene, scenes};
 use clap::Parser;
 use glam::DVec2;
 
+mod common;
+use common::positive;
+
 #[derive(Parser, Debug)]
 #[command(about = "The monitor's contact solve on a scene from its start, a quarter second a row")]
 struct Args {
@@ -42,13 +45,6 @@ struct Args {
     /// Spans from 1 to 2 times `--span`, from a fixed sequence.
     #[arg(long)]
     jitter: bool,
-}
-
-fn positive(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && x > 0.0 && x <= 3600.0 => Ok(x),
-        _ => Err(format!("{s:?} is not a positive number up to 3600")),
-    }
 }
 
 fn main() -> ExitCode {

@@ -15,6 +15,9 @@ use std::time::Instant;
 use ballfield::{Lockstep, scenes};
 use clap::Parser;
 
+mod common;
+use common::positive;
+
 #[derive(Parser, Debug)]
 #[command(about = "A scene on the lockstep engine, half a second a row")]
 struct Args {
@@ -24,13 +27,6 @@ struct Args {
     /// Simulated seconds to run.
     #[arg(long, default_value_t = 10.0, value_parser = positive)]
     seconds: f64,
-}
-
-fn positive(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && x > 0.0 && x <= 3600.0 => Ok(x),
-        _ => Err(format!("{s:?} is not a positive number up to 3600")),
-    }
 }
 
 fn main() -> ExitCode {

@@ -19,6 +19,9 @@ use ballfield::engine::ThreadedEngine;
 use ballfield::{Scene, scenes};
 use clap::Parser;
 
+mod common;
+use common::positive;
+
 #[derive(Parser, Debug)]
 #[command(about = "The collision monitor's passes, half a second at a time")]
 struct Args {
@@ -29,15 +32,8 @@ struct Args {
     #[arg(long)]
     state_in: Option<PathBuf>,
     /// Wall-clock seconds to run.
-    #[arg(long, default_value_t = 20.0, value_parser = seconds)]
+    #[arg(long, default_value_t = 20.0, value_parser = positive)]
     seconds: f64,
-}
-
-fn seconds(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && x > 0.0 && x <= 3600.0 => Ok(x),
-        _ => Err(format!("{s:?} is not a number of seconds in (0, 3600]")),
-    }
 }
 
 fn main() -> ExitCode {

@@ -84,7 +84,6 @@ pub struct ElasticOutcome {
     /// Wall bounces inside the passes, and the impulses the walls took there.
     pub wall_bounces: u64,
     pub walls: WallImpulses,
-    pub passes: u32,
 }
 
 /// The touching pairs (as slots) grouped for the solver, and the slot-ordered copy of the balls.
@@ -219,14 +218,10 @@ impl ElasticContacts {
                 |i| i,
             );
             outcome.impulses += pass.impulses;
-            outcome.passes += 1;
-            if pass.active == 0 && bounced.impulses == 0 {
-                break;
+            match next_pass(pass, bounced, iteration, iterations) {
+                Some(grouped) => group = grouped,
+                None => break,
             }
-            if iteration + 1 >= iterations && pass.fast + bounced.fast == 0 {
-                break;
-            }
-            group = bounced.fast > 0;
         }
         outcome
     }
@@ -306,18 +301,29 @@ impl ElasticContacts {
                 |s| slots[s] as usize,
             );
             outcome.impulses += pass.impulses;
-            outcome.passes += 1;
-            if pass.active == 0 && bounced.impulses == 0 {
-                break;
+            match next_pass(pass, bounced, iteration, iterations) {
+                Some(grouped) => group = grouped,
+                None => break,
             }
-            if iteration + 1 >= iterations && pass.fast + bounced.fast == 0 {
-                break;
-            }
-            group = bounced.fast > 0;
         }
         l.scatter(b, ball_slot);
         outcome
     }
+}
+
+/// After pass `iteration` (from 0) of a sub-step's elastic passes, which did `pass` over the pairs
+/// and `bounced` at the walls: `None` when the passes stop (see [`ElasticContacts::solve`]: no
+/// overlap and no wall met, or `iterations` passes and no fast impact going on), else whether the
+/// next pass solves simultaneous impacts together (only while a chain of fast wall bounces goes
+/// on; the first pass always does).
+fn next_pass(pass: Tally, bounced: Tally, iteration: usize, iterations: usize) -> Option<bool> {
+    if pass.active == 0 && bounced.impulses == 0 {
+        return None;
+    }
+    if iteration + 1 >= iterations && pass.fast + bounced.fast == 0 {
+        return None;
+    }
+    Some(bounced.fast > 0)
 }
 
 /// Sets every ball's latest impact to none (∞) for a sub-step of `n` balls: the last sub-step's
