@@ -1473,7 +1473,7 @@ impl World {
             found
         };
         if !resting(self, i) && !resting(self, j) && !other_contact(self, i, j) && !other_contact(self, j, i) {
-            return false;
+            return self.strike_free_cluster(i, j);
         }
         let mut members = vec![i, j];
         let mut pairs = vec![(0usize, 1usize)];
@@ -1540,6 +1540,73 @@ impl World {
         } else {
             self.strike_through_rest(&members, &pairs);
         }
+        for &m in &members {
+            self.predict(m);
+        }
+        self.predict_others([i, j]);
+        true
+    }
+
+    /// The fast collision of free balls i and j, which no other contact closing fast joins,
+    /// struck in rounds with every free ball touching them through each other when that cluster
+    /// holds another contact closing fast at this instant: a row of touching balls struck from
+    /// both ends at once. Taken as events, the impacts at one instant go in the calendar's order
+    /// (by ball index), and the wave from the end numbered first ran through the whole row before
+    /// the other end's impact was struck (2.24 and −3.32 m/s for strikers leaving at ∓2.56 m/s).
+    /// In rounds ([`World::strike_through_rest`], every touching pair a contact) the two waves
+    /// advance together, as the stepped engines' rounds have them. Returns false, and changes
+    /// nothing, when i and j touch nothing else, when the cluster holds a ball that is not free
+    /// or more than [`MAX_GROUP`] balls, or when no other contact in it closes fast.
+    fn strike_free_cluster(&mut self, i: usize, j: usize) -> bool {
+        let free = |w: &World, k: usize| w.cold[k].motion == Motion::Free;
+        let mut members = vec![i, j];
+        let mut near = Vec::new();
+        let mut g = 0;
+        while g < members.len() {
+            let m = members[g];
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in &near {
+                if k == m || members.contains(&k) || !self.touching(m, k) {
+                    continue;
+                }
+                if !free(self, k) || members.len() == MAX_GROUP {
+                    return false;
+                }
+                members.push(k);
+            }
+            g += 1;
+        }
+        if members.len() == 2 {
+            return false;
+        }
+        // The contacts closing fast, as slots in `members`; the pair (i, j) first.
+        let speed = self.params.collapse_speed;
+        let mut pairs = vec![(0usize, 1usize)];
+        for a in 0..members.len() {
+            for b in a + 1..members.len() {
+                let (ka, kb) = (members[a], members[b]);
+                if (a, b) == (0, 1) || !self.touching(ka, kb) {
+                    continue;
+                }
+                let ((xa, va), (xb, vb)) = (self.at(ka), self.at(kb));
+                let d = xb - xa;
+                if (vb - va).dot(d) < -speed * d.length() {
+                    pairs.push((a, b));
+                }
+            }
+        }
+        if pairs.len() == 1 {
+            return false;
+        }
+        for (s, &m) in members.iter().enumerate() {
+            self.sync(m);
+            if s >= 2 {
+                self.note_instant(m);
+            }
+        }
+        self.counters.simultaneous_rounds += 1;
+        self.strike_through_rest(&members, &pairs);
         for &m in &members {
             self.predict(m);
         }
