@@ -706,10 +706,6 @@ fn a_ball_striking_two_touching_balls_between_them_leaves_a_mirror_image() {
     });
 }
 
-/// The strikers' speed and the row's length in [`row_struck_from_both_ends`].
-const ROW_SPEED: f64 = 3.0;
-const ROW: usize = 5;
-
 /// The rounds of sequential impacts, in one dimension, of balls of `masses` touching in a row
 /// with `velocities` (along the row): each round strikes together every touching neighbour pair
 /// that closes, with restitution `e` (impulses λ ≥ 0 with each struck pair leaving at ≥ −e times
@@ -743,67 +739,142 @@ fn row_rounds(masses: &[f64], mut v: Vec<f64>, e: f64) -> Vec<f64> {
     panic!("the rounds did not end");
 }
 
-/// A row of five touching balls (1 kg, 1 m) at rest between x = 22 and 26 on y = 10, struck at
-/// once from both ends by balls of 2 kg at ±3 m/s (from x = 18 and 30: both touch at t = 1 s),
-/// ball restitution `e`, no gravity. Returns each ball's x-velocity after 1.5 s, left to right.
-fn row_struck_from_both_ends(kind: EngineKind, e: f64) -> Vec<f64> {
-    let mut balls = vec![spec([18.0, 10.0], [ROW_SPEED, 0.0], 2.0, 1.0)];
-    for k in 0..ROW {
+/// A row of `n` touching balls (1 kg, 1 m) at rest from x = 22 on y = 10, struck at once from
+/// both ends by balls of 2 kg at ±`speed` m/s, both touching the row's ends at t = 1 s (on the
+/// end of a 1 ms step), ball restitution `e`, no gravity. Returns each ball's x-velocity after
+/// 1.5 s, left to right.
+fn row_struck_from_both_ends(kind: EngineKind, e: f64, n: usize, speed: f64) -> Vec<f64> {
+    let mut balls = vec![spec([21.0 - speed, 10.0], [speed, 0.0], 2.0, 1.0)];
+    for k in 0..n {
         balls.push(spec([22.0 + k as f64, 10.0], [0.0, 0.0], 1.0, 1.0));
     }
-    balls.push(spec([30.0, 10.0], [-ROW_SPEED, 0.0], 2.0, 1.0));
+    balls.push(spec([22.0 + n as f64 + speed, 10.0], [-speed, 0.0], 2.0, 1.0));
     let s = scene(48.0, 20.0, 1.0, e, false, DEFAULT, &balls);
     let end = run(kind, &s, 1.5);
-    assert_eq!(end.walls, 0.0, "{kind} e {e}: a ball reached a wall");
+    assert_eq!(end.walls, 0.0, "{kind} e {e} n {n}: a ball reached a wall");
     end.balls.iter().map(|b| b.velocity.x).collect()
 }
 
 /// Struck at once from both ends, the row comes out a mirror image (each ball's velocity the
 /// negative of its mirror's), as the rounds of sequential impacts say ([`row_rounds`]: both
-/// waves advance a ball per round and meet at the middle ball), with its momentum zero, at every
-/// e from 0 to 1; the energy is kept at e = 1 and e = 0.99 is within a few percent of e = 1 (the
-/// strikers leave at ∓2.556 m/s at e = 1, ∓2.464 at e = 0.99). Measured at e = 0, 0.5, 0.99
-/// and 1, off the rounds (m/s): lockstep 6.1e-13 (at e = 0; 3.2e-14 above), threaded 3.3e-14,
-/// exact 4.1e-14; a mirror to the bit but lockstep at e = 0 (1.6e-13); energy at e = 1 within
-/// 2.1e-14. Seen to fail: lockstep's elastic passes striking a fast pair whose
-/// ball a fast impulse of the same pass struck (the wave from the end listed first went through
-/// the whole row in one pass: strikers at −2.654 and 2.333 m/s, the row 1.38 m/s off its mirror);
-/// the exact engine with its cluster rounds off (`World::strike_free_cluster`): the impacts of
-/// one instant went by ball index, strikers at −3.321 and 2.244 m/s.
+/// waves advance a ball per round and meet in the middle), with its momentum zero, at every e
+/// from 0 to 1; the energy is kept at e = 1 and e = 0.99 is within a few percent of e = 1.
+/// Rows of 5 (strikers at 3 m/s: they leave at ∓2.556 m/s at e = 1, ∓2.464 at e = 0.99) and 6
+/// (at 2 m/s: ∓1.753). Measured at e = 0, 0.5, 0.99 and 1, off the rounds (m/s): lockstep
+/// 6.1e-13 (at e = 0; 3.2e-14 above), threaded 3.3e-14, exact 4.1e-14 (row of 5) and, in the
+/// row of 6 at e < 1, 9.4e-5 (its collapse model, see the bounds); a mirror to the bit but
+/// lockstep at e ≤ 0.5 (3.2e-13) and exact's row of 6 at e = 0 (5.9e-8); energy at e = 1
+/// within 2.1e-14. Seen to fail: lockstep's elastic
+/// passes striking a fast pair whose ball a fast impulse of the same pass struck (the wave from
+/// the end listed first went through the whole row of 5 in one pass: strikers at −2.654 and
+/// 2.333 m/s); lockstep striking a pair short of touching by a rounding only in the next step
+/// (row of 6: the two strikers met their ends a step apart, −2.220 and 1.333 m/s); the exact
+/// engine with its cluster rounds off (`World::strike_free_cluster`): the impacts of one
+/// instant went by ball index, strikers at −3.321 and 2.244 m/s (row of 5).
 #[test]
 fn a_row_struck_from_both_ends_at_once_leaves_a_mirror_image() {
     let _s = serial();
     let mut failures = Vec::new();
-    let mut masses = vec![2.0];
-    masses.extend([1.0; ROW]);
-    masses.push(2.0);
-    let mut start = vec![0.0; ROW + 2];
-    (start[0], start[ROW + 1]) = (ROW_SPEED, -ROW_SPEED);
-    for kind in [EngineKind::Lockstep, EngineKind::Threaded, EngineKind::Exact] {
-        let mut striker = Vec::new();
-        for e in [0.0, 0.5, 0.99, 1.0] {
-            let want = row_rounds(&masses, start.clone(), e);
-            let v = row_struck_from_both_ends(kind, e);
-            let off = v.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-            let mirror = (0..v.len()).map(|k| (v[k] + v[v.len() - 1 - k]).abs()).fold(0.0, f64::max);
-            let momentum: f64 = v.iter().zip(&masses).map(|(u, m)| u * m).sum();
-            let energy = |u: &[f64]| u.iter().zip(&masses).map(|(u, m)| 0.5 * m * u * u).sum::<f64>();
-            let energy_change = energy(&v) / energy(&start) - 1.0;
-            eprintln!(
-                "{kind} e {e}: {v:.4?} (rounds {want:.4?}): off {off:.1e}, mirror {mirror:.1e}, momentum \
-                 {momentum:.1e}, energy {energy_change:.1e}"
-            );
-            check!(failures, off <= 1e-12, "{kind} e {e}: off the rounds by {off:e} m/s: {v:?} against {want:?}");
-            check!(failures, mirror <= 1e-12, "{kind} e {e}: not a mirror image by {mirror:e} m/s: {v:?}");
-            check!(failures, momentum.abs() <= 1e-12, "{kind} e {e}: momentum {momentum:e} N·s");
-            if e == 1.0 {
-                check!(failures, energy_change.abs() <= 1e-12, "{kind}: energy changed by {energy_change:e}");
+    for (n, speed) in [(5, 3.0), (6, 2.0)] {
+        let mut masses = vec![2.0];
+        masses.extend(vec![1.0; n]);
+        masses.push(2.0);
+        let mut start = vec![0.0; n + 2];
+        (start[0], start[n + 1]) = (speed, -speed);
+        for kind in [EngineKind::Lockstep, EngineKind::Threaded, EngineKind::Exact] {
+            let mut striker = Vec::new();
+            for e in [0.0, 0.5, 0.99, 1.0] {
+                let want = row_rounds(&masses, start.clone(), e);
+                let v = row_struck_from_both_ends(kind, e, n, speed);
+                let off = v.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                let mirror = (0..v.len()).map(|k| (v[k] + v[v.len() - 1 - k]).abs()).fold(0.0, f64::max);
+                let momentum: f64 = v.iter().zip(&masses).map(|(u, m)| u * m).sum();
+                let energy = |u: &[f64]| u.iter().zip(&masses).map(|(u, m)| 0.5 * m * u * u).sum::<f64>();
+                let energy_change = energy(&v) / energy(&start) - 1.0;
+                eprintln!(
+                    "{kind} n {n} e {e}: {v:.4?} (rounds {want:.4?}): off {off:.1e}, mirror {mirror:.1e}, \
+                     momentum {momentum:.1e}, energy {energy_change:.1e}"
+                );
+                // The exact engine's collapse model strikes the last slow impacts of an
+                // inelastic row (closing below its collapse speed) with a softened restitution:
+                // it leaves them creeping at up to 9.4e-5 m/s (row of 6, e = 0.5), off its mirror
+                // by up to 5.9e-8 (e = 0).
+                let (off_bound, mirror_bound) =
+                    if kind == EngineKind::Exact && e < 1.0 { (2e-4, 2e-7) } else { (1e-12, 1e-12) };
+                check!(
+                    failures,
+                    off <= off_bound,
+                    "{kind} n {n} e {e}: off the rounds by {off:e} m/s: {v:?} against {want:?}"
+                );
+                check!(
+                    failures,
+                    mirror <= mirror_bound,
+                    "{kind} n {n} e {e}: not a mirror image by {mirror:e} m/s: {v:?}"
+                );
+                check!(failures, momentum.abs() <= 1e-12, "{kind} n {n} e {e}: momentum {momentum:e} N·s");
+                if e == 1.0 {
+                    check!(failures, energy_change.abs() <= 1e-12, "{kind} n {n}: energy changed by {energy_change:e}");
+                }
+                striker.push(v[0]);
             }
-            striker.push(v[0]);
+            let (at_99, at_1) = (striker[2], striker[3]);
+            let gap = (at_99 - at_1).abs() / speed;
+            check!(
+                failures,
+                gap <= 0.05,
+                "{kind} n {n}: the striker leaves at {at_99} m/s at e = 0.99, {at_1} at e = 1"
+            );
         }
-        let (at_99, at_1) = (striker[2], striker[3]);
-        let gap = (at_99 - at_1).abs() / ROW_SPEED;
-        check!(failures, gap <= 0.05, "{kind}: the striker leaves at {at_99} m/s at e = 0.99, {at_1} at e = 1");
+    }
+    none_failed(failures);
+}
+
+/// A ball (1 kg, 1 m) falls along x = 20 at 2 m/s onto the top of a pyramid of three touching
+/// balls at rest (1 kg, 1 m: two side by side at x = 19.5 and 20.5, one on top), no gravity,
+/// meeting it at t = 1 s; the balls listed in `order`. Returns the velocities after 2 s in the
+/// scene's order (bottom left, bottom right, top, striker).
+fn pyramid_struck_on_top(kind: EngineKind, e: f64, order: [usize; 4]) -> Vec<DVec2> {
+    let top = 5.0 + 0.75f64.sqrt();
+    let balls = [
+        spec([19.5, 5.0], [0.0, 0.0], 1.0, 1.0),
+        spec([20.5, 5.0], [0.0, 0.0], 1.0, 1.0),
+        spec([20.0, top], [0.0, 0.0], 1.0, 1.0),
+        spec([20.0, top + 3.0], [0.0, -2.0], 1.0, 1.0),
+    ];
+    let listed: Vec<Spec> = order.iter().map(|&k| balls[k]).collect();
+    let s = scene(40.0, 20.0, 1.0, e, false, DEFAULT, &listed);
+    let end = run(kind, &s, 2.0);
+    assert_eq!(end.walls, 0.0, "{kind} e {e}: a ball reached a wall");
+    (0..4).map(|k| end.balls[order.iter().position(|&o| o == k).unwrap()].velocity).collect()
+}
+
+/// Struck on top, the pyramid's top ball strikes both bottom balls at once: they leave as mirror
+/// images, the top ball and the striker on the axis, the same in every engine and numbering, at
+/// e = 0.5, 0.99 and 1 (e = 1: bottom balls at (∓0.6928, −1.2) m/s, the striker back at 0.4).
+/// Measured: lockstep and threaded a mirror image to the bit and within 7.3e-13 m/s of exact;
+/// exact a mirror image to 1.4e-12, the same in every numbering to 1.4e-12. Seen to fail with lockstep's elastic passes looking for impacts struck at
+/// once only in the pass after a wall bounce or a pair left waiting, not after any fast impulse:
+/// at e = 1 the top ball's two impacts came before its own in the list and went one by one,
+/// bottom balls at (−0.866, −1.5) and (0.433, −0.75), the top ball off the axis at 0.433 m/s.
+#[test]
+fn a_pyramid_struck_on_top_leaves_a_mirror_image() {
+    let _s = serial();
+    let mut failures = Vec::new();
+    for e in [0.5, 0.99, 1.0] {
+        let reference = pyramid_struck_on_top(EngineKind::Exact, e, [0, 1, 2, 3]);
+        for kind in [EngineKind::Lockstep, EngineKind::Threaded, EngineKind::Exact] {
+            // The exact engine's mirror is good to its event times' rounding.
+            let bound = if kind == EngineKind::Exact { 1e-11 } else { 1e-12 };
+            for order in [[0, 1, 2, 3], [3, 2, 1, 0], [2, 0, 3, 1]] {
+                let v = pyramid_struck_on_top(kind, e, order);
+                let mirror = (v[0] - DVec2::new(-v[1].x, v[1].y)).length().max(v[2].x.abs()).max(v[3].x.abs());
+                let off = v.iter().zip(&reference).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+                eprintln!("{kind} e {e} order {order:?}: {v:.4?}: mirror {mirror:.1e}, off exact {off:.1e}");
+                check!(failures, v[0].length() > 0.1, "{kind} e {e} order {order:?}: the bottom was not struck");
+                check!(failures, mirror <= bound, "{kind} e {e} order {order:?}: not a mirror image by {mirror:e}");
+                check!(failures, off <= bound, "{kind} e {e} order {order:?}: off the exact engine by {off:e}");
+            }
+        }
     }
     none_failed(failures);
 }

@@ -37,8 +37,8 @@ use rayon::prelude::*;
 use super::PARALLEL_MIN_PAIRS;
 use super::contact_solver::{Fixed, SlotBodies, split_runs};
 use crate::physics::{
-    BallBallContact, Bodies, BroadPhase, ContactBody, Field, RoundContact, TOUCH_MARGIN, WallImpulses,
-    contact_ball_ball, contact_ball_wall, solve_simultaneous,
+    BallBallContact, Bodies, BroadPhase, ContactBody, Field, RoundContact, WallImpulses, contact_ball_ball,
+    contact_ball_wall, solve_simultaneous,
 };
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes), and the
@@ -341,8 +341,11 @@ impl ElasticContacts {
 /// After pass `iteration` (from 0) of a sub-step's elastic passes, which did `pass` over the pairs
 /// and `bounced` at the walls: `None` when the passes stop (see [`ElasticContacts::solve`]: no
 /// overlap and no wall met, or `iterations` passes and no fast impact going on), else whether the
-/// next pass solves simultaneous impacts together (only while a chain of fast wall bounces goes
-/// on, or while fast pairs wait for the next pass; the first pass always does).
+/// next pass solves simultaneous impacts together (only after a pass that struck, or left
+/// waiting, a fast impact or bounced a ball off a wall fast; the first pass always does): a fast
+/// impulse sets pairs closing that may meet at once, such as a ball struck on top of two
+/// touching balls, which then strikes both — they come before or after the first impact in the
+/// list, and those before it are seen only in the next pass.
 fn next_pass(pass: Tally, bounced: Tally, iteration: usize, iterations: usize) -> Option<bool> {
     if pass.active == 0 && bounced.impulses == 0 {
         return None;
@@ -350,7 +353,7 @@ fn next_pass(pass: Tally, bounced: Tally, iteration: usize, iterations: usize) -
     if iteration + 1 >= iterations && pass.fast + bounced.fast == 0 {
         return None;
     }
-    Some(bounced.fast > 0 || pass.deferred > 0)
+    Some(bounced.fast + pass.fast > 0)
 }
 
 /// What a pass over the pairs marks on the balls it strikes (indexed as `x`, `v`): each one's
@@ -540,7 +543,11 @@ fn solve_pairs(
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
         let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         let (a, b) = (body(fi, i), body(fj, j));
-        if let Some(c) = contact_ball_ball(&a, &b, e, dt) {
+        let contact = contact_ball_ball(&a, &b, e, dt).or_else(|| {
+            // A pair short of touching by the margin: struck only when it closes fast.
+            touching_contact(&a, &b, e).filter(|c| c.impulse * (a.inverse_mass + b.inverse_mass) > (1.0 + e) * together)
+        });
+        if let Some(c) = contact {
             // J = (1 + e)·|v_rel|/(1/m_a + 1/m_b).
             let fast = c.impulse > 0.0 && c.impulse * (a.inverse_mass + b.inverse_mass) > (1.0 + e) * together;
             tally.active += 1;
@@ -588,44 +595,19 @@ fn simultaneous(
     speed: f64,
     index: &impl Fn(usize) -> (usize, usize),
 ) -> Vec<Vec<u32>> {
-    // (ball, pair) for both balls of every fast pair, and the pairs that close as fast while
-    // touching (within [`TOUCH_MARGIN`]) without overlap.
+    // (ball, pair) for both balls of every fast pair: overlapping, or short of touching by no
+    // more than [`SAME_INSTANT`] (see [`touching_contact`]).
     let mut ends: Vec<(usize, u32)> = Vec::new();
-    let mut touching: Vec<(usize, usize, u32)> = Vec::new();
     for (n, &(k, m)) in pairs.iter().enumerate() {
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
         let d = x[j] - x[i];
-        let reach = fixed.radius[fi] + fixed.radius[fj];
+        let touch = (fixed.radius[fi] + fixed.radius[fj]) * (1.0 + SAME_INSTANT);
         let dist2 = d.length_squared();
-        let touch = reach * (1.0 + TOUCH_MARGIN);
         if dist2 < touch * touch && (v[j] - v[i]).dot(d) < -speed * dist2.sqrt() {
-            if dist2 < reach * reach {
-                ends.push((i, n as u32));
-                ends.push((j, n as u32));
-            } else {
-                touching.push((i, j, n as u32));
-            }
+            ends.push((i, n as u32));
+            ends.push((j, n as u32));
         }
     }
-    if ends.len() < 2 || ends.len() + 2 * touching.len() < 4 {
-        return Vec::new();
-    }
-    // A touching pair that closes fast and shares a ball with one that overlaps meets it at the
-    // same instant, to rounding: a ball struck at once from both sides where both impacts fall
-    // on the end of a step, one pair overlapping by a rounding and the other short of touching
-    // by one. Struck one after the other (the touching pair in a later step), the two came out
-    // as sequential impacts (0, −3 and 4 m/s for a ball at rest struck by balls at 4 and
-    // −3 m/s), the round (2/3, −10/3, 11/3) only at step sizes that do not put the impacts on
-    // a step's end; the inelastic solver, which counts pairs within the margin as touching,
-    // took them together at e = 0.99 either way.
-    ends.sort_unstable();
-    let overlapping = |b: usize| ends.binary_search_by(|&(e, _)| e.cmp(&b)).is_ok();
-    let joined: Vec<(usize, u32)> = touching
-        .iter()
-        .filter(|&&(i, j, _)| overlapping(i) || overlapping(j))
-        .flat_map(|&(i, j, n)| [(i, n), (j, n)])
-        .collect();
-    ends.extend(joined);
     if ends.len() < 4 {
         return Vec::new();
     }
@@ -665,33 +647,67 @@ fn simultaneous(
     groups
 }
 
-/// The contact of two balls that touch (within [`TOUCH_MARGIN`]) without overlap and close,
-/// as [`contact_ball_ball`] gives one that touches at the end of the step: the normal along
-/// the line of centres, the impulse acting at the end (replayed from 0 before it), no shift.
+/// The contact of two balls short of touching by no more than [`SAME_INSTANT`] of their contact
+/// distance (a rounding) and closing, struck at the instant they touch, just after the step's
+/// end: the normal there, and each ball shifted back by its velocity change times that time,
+/// its `replayed` instant negative (after the end). (Struck at the end along the line of centres
+/// instead, a collision came early by up to the gap: lockstep strayed from the exact engine by
+/// 4.7e-8 m in `tests/exact_convergence.rs`, whose bound is 1e-9, with the gap allowed up to the
+/// touch margin, 1e-6; 1.4e-8 m struck at the instant, impacts then going out of order.)
+///
+/// The passes strike such a pair when it closes faster than the chain speed, as the inelastic
+/// solver does every pair within its touch margin: a step that ends on an impact leaves the pair
+/// overlapping by a rounding or short of touching by one, and two impacts of one instant (a row
+/// struck from both ends at once, each striker reaching its end at t = 1 s exactly, dt = 1 ms)
+/// went one step apart — the wave from the end that overlapped first ran a ball ahead, and the
+/// strikers left at −2.220 and 1.333 m/s where the rounds give ∓1.753. A ball at rest struck at
+/// once by balls at 4 and −3 m/s came out likewise as the sequential impacts (0, −3 and 4 m/s)
+/// where the round gives 2/3, −10/3 and 11/3, as the inelastic solver did at e = 0.99.
 fn touching_contact(a: &ContactBody, b: &ContactBody, e: f64) -> Option<BallBallContact> {
     let d = b.position - a.position;
     let reach = a.radius + b.radius;
-    let dist = d.length();
-    if dist > reach * (1.0 + TOUCH_MARGIN) || dist <= 1e-9 * reach {
+    let dist2 = d.length_squared();
+    if dist2 > (reach * (1.0 + SAME_INSTANT)).powi(2) || dist2 < reach * reach {
         return None;
     }
-    let normal = d / dist;
-    let v_rel = (b.velocity - a.velocity).dot(normal);
+    let u = b.velocity - a.velocity;
+    // The instant they touch, s ahead along the relative motion: |d + u·s| = R, the earlier
+    // root; none if they pass each other by.
+    let (uu, du) = (u.length_squared(), d.dot(u));
+    let disc = du * du - uu * (dist2 - reach * reach);
+    if du >= 0.0 || uu <= 0.0 || disc < 0.0 {
+        return None;
+    }
+    let s = ((-du - disc.sqrt()) / uu).max(0.0);
+    let at = d + u * s;
+    let normal = at / at.length();
+    let v_rel = u.dot(normal);
     if v_rel >= 0.0 {
         return None;
     }
     let impulse = -(1.0 + e) * v_rel / (a.inverse_mass + b.inverse_mass);
+    let (velocity_change_a, velocity_change_b) =
+        (-impulse * a.inverse_mass * normal, impulse * b.inverse_mass * normal);
+    // Struck now as at that instant: each ball moves back by its velocity change times s, so that
+    // from the instant on it is where the collision at it puts it (the replay, run backwards).
     Some(BallBallContact {
         normal,
         penetration: 0.0,
         impulse,
-        velocity_change_a: -impulse * a.inverse_mass * normal,
-        velocity_change_b: impulse * b.inverse_mass * normal,
-        shift_a: DVec2::ZERO,
-        shift_b: DVec2::ZERO,
-        replayed: Some(0.0),
+        velocity_change_a,
+        velocity_change_b,
+        shift_a: -velocity_change_a * s,
+        shift_b: -velocity_change_b * s,
+        replayed: Some(-s),
     })
 }
+
+/// How far apart, as a share of their contact distance, two impacts' balls may be when they
+/// count as struck at one instant: well above the positions' accumulated rounding (1e-10 m after
+/// 10⁵ steps of a 1 m ball), well below any real difference. (At the touch margin, 1e-6, two
+/// impacts 1.4e-8 m apart were struck at once where the exact engine takes them one after the
+/// other, and lockstep strayed from it by 1.4e-8 m: `tests/exact_convergence.rs`.)
+const SAME_INSTANT: f64 = 1e-9;
 
 /// The most contacts struck at once: more are taken one by one (a few balls striking together;
 /// the sweeps of a larger round converge slower, and one that does not converge would not keep
@@ -735,7 +751,7 @@ fn strike_together(
         Some(at) => at,
         None => {
             balls.push((i, f));
-            tau.push(0.0);
+            tau.push(f64::NEG_INFINITY);
             balls.len() - 1
         }
     };
@@ -743,11 +759,11 @@ fn strike_together(
     let mut pushes: Vec<(usize, DVec2)> = Vec::new();
     let (mut earliest, mut latest) = (f64::INFINITY, f64::NEG_INFINITY);
     // The contacts touched at one instant when their instants differ by less than a millionth of
-    // the step, or by less than the time any of them takes to close the touch margin
-    // ([`TOUCH_MARGIN`]): each one's instant is its rewind along the state the step left,
-    // rounded as the positions are (a step that ends on the impact leaves one pair overlapping
-    // by a rounding and the other short of touching by one; at dt = 1e-5 s, after 10⁵ steps,
-    // the instants of such an impact were 2.5e-11 s apart, a millionth of the step 1e-11 s).
+    // the step, or by less than the time any of them takes to close [`SAME_INSTANT`] of its
+    // contact distance: each one's instant is its rewind along the state the step left, rounded
+    // as the positions are (a step that ends on the impact leaves one pair overlapping by a
+    // rounding and the other short of touching by one; at dt = 1e-5 s, after 10⁵ steps, the
+    // instants of such an impact were 2.5e-11 s apart, a millionth of the step 1e-11 s).
     let mut apart = f64::INFINITY;
     // Approaching contacts replayed and pushed apart.
     let (mut replayed, mut pushed) = (0, 0);
@@ -776,7 +792,7 @@ fn strike_together(
             }
             let vn = (b.velocity - a.velocity).dot(c.normal);
             // How far apart in time the contacts may have touched and still be one impact.
-            apart = apart.min(TOUCH_MARGIN * (a.radius + b.radius) / -vn);
+            apart = apart.min(SAME_INSTANT * (a.radius + b.radius) / -vn);
             round.push(RoundContact {
                 target: -e * vn,
                 ..RoundContact::new(la, Some(lb), c.normal, a.inverse_mass, b.inverse_mass)
@@ -786,6 +802,11 @@ fn strike_together(
     let apart = apart.max(1e-6 * dt);
     if round.len() < 2 || round.len() > MAX_TOGETHER || latest - earliest > apart || replayed * pushed > 0 {
         return None;
+    }
+    // A ball of pushed contacts alone is not replayed; one struck only where it is about to
+    // touch (a negative instant, see [`touching_contact`]) is moved back.
+    for t in tau.iter_mut().filter(|t| **t == f64::NEG_INFINITY) {
+        *t = 0.0;
     }
     let mut velocity: Vec<DVec2> = balls.iter().map(|&(s, _)| v[s]).collect();
     let mut counts = vec![0; balls.len()];
