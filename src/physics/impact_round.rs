@@ -106,7 +106,12 @@ pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts
             let impulse = (c.impulse + (c.target - vn) / c.split).max(0.0);
             c.delta = impulse - c.impulse;
             c.impulse = impulse;
-            largest = largest.max(c.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b));
+            // A comparison, not `f64::max`: the same value (a NaN change is skipped either way),
+            // but one `maxsd` on the sweep's loop-carried chain instead of `max`'s NaN handling.
+            let change = c.delta.abs() * (c.inverse_mass_a + c.inverse_mass_b);
+            if change > largest {
+                largest = change;
+            }
         }
         for c in contacts.iter() {
             v[c.a] -= (c.delta * c.inverse_mass_a) * c.normal;
