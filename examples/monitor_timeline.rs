@@ -3,7 +3,8 @@
 //! second, its mean pass, its longest pass so far, the balls asleep, the solves that hit an
 //! iteration cap and the contacts a pass solved, all over that half second. The report's
 //! figures are means over a whole run; this shows where in a run (a pile landing, settling,
-//! asleep) the monitor's time goes. `BALLFIELD_SLEEP=off` keeps every ball awake.
+//! asleep) the monitor's time goes, with the balls' kinetic energy and the runtime's clock at the
+//! row's end (how far the pile has come). `BALLFIELD_SLEEP=off` keeps every ball awake.
 //!
 //! ```sh
 //! cargo run --release --example monitor_timeline -- --scene pile --seconds 20
@@ -56,8 +57,10 @@ fn run(args: &Args) -> anyhow::Result<()> {
     let started = Instant::now();
     let mut last = engine.runtime().stats();
     let half = Duration::from_millis(500);
-    println!("| s | passes/s | mean pass ms | longest so far ms | asleep | unconverged | contacts a pass |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "| s | passes/s | mean pass ms | longest so far ms | asleep | unconverged | contacts a pass | kinetic J | clock s |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     while started.elapsed().as_secs_f64() < args.seconds {
         std::thread::sleep(half);
         let now = engine.runtime().stats();
@@ -65,8 +68,10 @@ fn run(args: &Args) -> anyhow::Result<()> {
         let busy = now.monitor_pass_seconds * now.monitor_passes as f64
             - last.monitor_pass_seconds * last.monitor_passes as f64;
         let per_pass = |x: u64| x as f64 / passes.max(1) as f64;
+        let kinetic: f64 =
+            engine.runtime().snapshot().iter().map(|r| 0.5 * r.ball.mass * r.ball.velocity.length_squared()).sum();
         println!(
-            "| {:.1} | {:.0} | {:.3} | {:.1} | {} | {} | {:.0} |",
+            "| {:.1} | {:.0} | {:.3} | {:.1} | {} | {} | {:.0} | {:.2e} | {:.2} |",
             started.elapsed().as_secs_f64(),
             passes as f64 / (now.seconds - last.seconds).max(1e-9),
             busy / passes.max(1) as f64 * 1e3,
@@ -74,6 +79,8 @@ fn run(args: &Args) -> anyhow::Result<()> {
             now.balls_asleep,
             now.solves_unconverged - last.solves_unconverged,
             per_pass(now.contacts_solved - last.contacts_solved),
+            kinetic,
+            engine.runtime().clock_seconds(),
         );
         last = now;
     }

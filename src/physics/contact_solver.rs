@@ -82,6 +82,18 @@ pub const MAX_ROUND_ITERATIONS: u32 = 1000;
 pub const MAX_REDETECTIONS: u32 = 8;
 /// Most Gauss–Seidel passes of the resting phase.
 pub const MAX_RESTING_PASSES: u32 = 50;
+/// Most row updates the resting passes of one [`ContactSolver::solve`] take (the threaded
+/// monitor's solver; lockstep's passes take [`MAX_RESTING_PASSES`] whatever their count), but
+/// never fewer than [`MIN_RESTING_PASSES`] passes. The monitor has a millisecond a pass. On a
+/// settling 1,024-ball pile (about 2,200 contacts) the passes do not converge within 50 anyway:
+/// the largest change of a pass falls from 1–2e-2 to 1–3e-3 m/s against a tolerance of 1e-5 (the
+/// pile's contact forces are indeterminate, and Gauss–Seidel walks among them slowly), and the
+/// warm start carries what convergence there is from span to span. Passes 19 to 50 cost about a
+/// third of such a solve; the pile settles as well without them (docs/measurements.md). A
+/// contact set of up to 800 rows takes all 50.
+pub const RESTING_ROW_BUDGET: usize = 40_000;
+/// The fewest resting passes [`RESTING_ROW_BUDGET`] leaves a solve.
+pub const MIN_RESTING_PASSES: u32 = 16;
 /// Most sub-spans [`ContactSolver::solve`] divides a span into (see there): a span in which a
 /// ball with a candidate pair travels up to `MAX_SUB_SPANS ·` [`MAX_TRAVEL`] radii is judged in
 /// sub-spans of at most half a radius of travel, as lockstep's steps are.
@@ -660,7 +672,16 @@ impl ImpactScratch {
                 }
             }
         }
-        self.to_check.sort_unstable();
+        // In the candidates' order: sorted when few, or read off the marks in one scan when they
+        // are many (a round of a landing pile's impacts marks hundreds of candidates, and the
+        // sort was a twentieth of its solve).
+        if self.to_check.len() * 16 > self.candidates.len() {
+            self.to_check.clear();
+            let marked = self.checked_in.iter().enumerate().filter(|&(_, &r)| r == round);
+            self.to_check.extend(marked.map(|(m, _)| m as u32));
+        } else {
+            self.to_check.sort_unstable();
+        }
         self.rows.clear();
         for i in 0..self.to_check.len() {
             let (l, k) = self.candidates[self.to_check[i] as usize];
@@ -1016,6 +1037,12 @@ impl Tolerances {
             reach_gap: 2.0 * a_h * span,
         }
     }
+}
+
+/// The resting passes a solve of `rows` active contacts may take (see [`RESTING_ROW_BUDGET`]).
+fn resting_pass_cap(rows: usize) -> u32 {
+    let passes = RESTING_ROW_BUDGET / rows.max(1);
+    passes.clamp(MIN_RESTING_PASSES as usize, MAX_RESTING_PASSES as usize) as u32
 }
 
 /// One active resting contact, packed for the resting passes of [`ContactSolver::solve`]: a
@@ -1588,13 +1615,14 @@ impl ContactSolver {
         }));
         in_waves(&mut self.rows, &mut self.order, n, &mut self.waves);
         self.velocity.push(DVec2::ZERO);
+        let cap = resting_pass_cap(self.rows.len());
         loop {
             let change = resting_rows_pass(&mut self.rows, &mut self.velocity, tally.resting_passes % 2 == 1);
             tally.resting_passes += 1;
             if change <= tolerance.resting {
                 break;
             }
-            if tally.resting_passes == MAX_RESTING_PASSES {
+            if tally.resting_passes == cap {
                 tally.converged = false;
                 break;
             }
@@ -1604,7 +1632,7 @@ impl ContactSolver {
         for (r, &key) in self.rows.iter().zip(&self.order) {
             list[key as u32 as usize].impulse = r.impulse;
         }
-        if tally.resting_passes == MAX_RESTING_PASSES {
+        if tally.resting_passes == cap {
             tally.islands_solved =
                 solve_resting_islands(&mut self.lists, &mut self.velocity, n, tolerance.resting, &mut self.islands);
         }
