@@ -1478,9 +1478,12 @@ impl World {
         let mut members = vec![i, j];
         let mut pairs = vec![(0usize, 1usize)];
         let mut left_out: Vec<usize> = Vec::new();
+        // Balls at rest on walls joined to the round with the one they lie beside (see below).
+        let mut joined: Vec<usize> = Vec::new();
         let mut near = Vec::new();
         loop {
             members.truncate(2);
+            members.extend(joined.iter().filter(|&&k| k != i && k != j));
             pairs.truncate(1);
             let mut g = 0;
             while g < members.len() && members.len() < MAX_GROUP {
@@ -1505,16 +1508,28 @@ impl World {
                 }
                 g += 1;
             }
-            // A ball at rest that touches a ball at rest outside the round is in a pile: left
-            // out, and the round gathered again without it (the balls it alone joined to the
-            // round leave with it).
-            let before = left_out.len();
-            for &m in &members {
-                if resting(self, m) && self.touches_resting(m, |k| !members.contains(&k)) {
-                    left_out.push(m);
+            // A ball at rest that touches a ball at rest outside the round: if the balls at rest
+            // it touches through each other all lie on walls (a row on the floor), they join the
+            // round; else it is in a pile, left out, and the round gathered again without it
+            // (the balls it alone joined to the round leave with it).
+            let (before, joined_before) = (left_out.len(), joined.len());
+            for s in 0..members.len() {
+                let m = members[s];
+                if !resting(self, m) || !self.touches_resting(m, |k| !members.contains(&k)) {
+                    continue;
+                }
+                match self.resting_row(m, &members) {
+                    Some(row) => {
+                        for k in row {
+                            if !joined.contains(&k) {
+                                joined.push(k);
+                            }
+                        }
+                    }
+                    None => left_out.push(m),
                 }
             }
-            if left_out.len() == before {
+            if left_out.len() == before && joined.len() == joined_before {
                 break;
             }
             if left_out.contains(&i) || left_out.contains(&j) {
@@ -1612,6 +1627,41 @@ impl World {
         }
         self.predict_others([i, j]);
         true
+    }
+
+    /// The balls at rest that ball `m` (at rest) touches through each other, outside `members`,
+    /// if every one of them lies on a wall that holds it against its acceleration and the round
+    /// stays within [`MAX_GROUP`] balls: a row lying on the floor, or balls side by side in a
+    /// corner. Such balls are held by walls alone, which take no impulse along them, so a ball
+    /// struck into the row passes the impulse along it (a cradle lying on the floor). `None` for
+    /// a pile (a ball at rest on other balls), whose balls stay held immovable (the rest model).
+    fn resting_row(&self, m: usize, members: &[usize]) -> Option<Vec<usize>> {
+        let on_a_wall = |k: usize| {
+            let (x, r, tol) = (self.hot[k].x, self.hot[k].r, 1e-6 * self.cold[k].diameter);
+            let a = self.free_accel(k);
+            (0..4).any(|w| WALL_NORMALS[w].dot(a) < 0.0 && self.wall_gap(w, x, r) <= tol)
+        };
+        let mut row: Vec<usize> = Vec::new();
+        let mut stack = vec![m];
+        while let Some(k) = stack.pop() {
+            let mut found = Vec::new();
+            self.cells.for_each_near(k, |n| {
+                if n != k && self.cold[n].motion == Motion::Resting && !members.contains(&n) && !row.contains(&n) {
+                    found.push(n);
+                }
+            });
+            for n in found {
+                if row.contains(&n) || !self.touching(k, n) {
+                    continue;
+                }
+                if !on_a_wall(n) || members.len() + row.len() == MAX_GROUP {
+                    return None;
+                }
+                row.push(n);
+                stack.push(n);
+            }
+        }
+        on_a_wall(m).then_some(row)
     }
 
     /// Whether ball `k` touches a ball at rest that `counts` (within a millionth of `k`'s
