@@ -33,10 +33,10 @@
 //! - a ball at rest stays so until it is pushed where its supports cannot hold it (an impulse
 //!   outside the cone wakes it; inside, the pile is immovable and passes the impulse on to the
 //!   walls), or a support of it wakes (balls resting on it are checked again, recursively); but a
-//!   ball at rest on walls alone, touching no other ball at rest (or only balls at rest struck at
-//!   the same instant: two balls side by side on the floor, a ball dropped between them), struck
+//!   ball at rest on walls alone, touching no other ball at rest, or only balls at rest that
+//!   themselves lie on walls (a row lying on the floor: walls take no impulse along it), struck
 //!   faster than the collapse speed, takes the impact, together with every other impact of that
-//!   instant, as the chain of sequential impacts it starts with its walls
+//!   instant and with those balls, as the chain of sequential impacts it starts with its walls
 //!   ([`World::strike_through_rest`]: a ball dropped on a ball lying on the floor rebounds as
 //!   that chain says; struck from both sides at once, it stays at rest) and wakes if it leaves
 //!   them faster than its rest speed;
@@ -1439,10 +1439,12 @@ impl World {
     ///
     /// A ball at rest or sliding is struck as a free ball, the walls it lies on being contacts
     /// of the round ([`World::strike_through_rest`]); a ball at rest is in the round only if
-    /// every ball at rest it touches is struck in the round too (a ball on walls alone, or two
-    /// balls lying side by side on the floor that a ball dropped between them strikes at once).
-    /// A ball of a pile stays held immovable (the rest model): it is left out of the round and
-    /// struck by its own event at this instant, its pile passing the impulse on to the walls.
+    /// every ball at rest it touches is in the round too: struck in it (a ball on walls alone,
+    /// two balls lying side by side on the floor that a ball dropped between them strikes at
+    /// once), or joined to it because the balls at rest it touches through each other all lie on
+    /// walls ([`World::resting_row`]: a row on the floor, struck along it as a cradle). A ball of
+    /// a pile stays held immovable (the rest model): it is left out of the round and struck by
+    /// its own event at this instant, its pile passing the impulse on to the walls.
     ///
     /// Returns false, and changes nothing, when i or j is a ball at rest left out, or when the
     /// round is the pair alone and neither is at rest (a binary collision, struck by
@@ -1728,7 +1730,8 @@ impl World {
     /// wall if the round lifts it off; every impulse on a wall goes on its gauge.
     ///
     /// Only for balls at rest whose every neighbour at rest is in the round (see
-    /// [`World::strike_simultaneous`]): a ball in a pile stays held immovable, its pile passing
+    /// [`World::strike_simultaneous`]: a row lying on walls joins it whole): a ball in a pile
+    /// stays held immovable, its pile passing
     /// the impulse on to the walls (the rest model). Struck through to its neighbours at rest
     /// (held immovable) and woken when it leaves them, the 150-ball pile of
     /// `tests/exact_pile.rs` had up to 8 times the events in its busiest half second (1.0–8.2
