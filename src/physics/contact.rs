@@ -60,6 +60,23 @@ pub fn coincident_normal(a: BallId, b: BallId) -> DVec2 {
     sign * DVec2::new(angle.cos(), angle.sin())
 }
 
+/// How far apart, as a share of their contact distance, two balls may be and still touch at the
+/// same instant as a contact that overlaps: well above the positions' accumulated rounding
+/// (1e-10 m after 10⁵ steps of a 1 m ball), well below any real difference. (At the touch margin,
+/// 1e-6, two impacts 1.4e-8 m apart are struck at once where the exact engine takes them one
+/// after the other, and lockstep strays from it by 1.4e-8 m: `tests/exact_convergence.rs`.)
+pub const SAME_INSTANT: f64 = 1e-9;
+
+/// How a pair that [`contact_ball_ball_or_touching`] strikes meets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BallBallTouch {
+    /// The balls overlap: the contact of [`contact_ball_ball`].
+    Overlapping,
+    /// The balls are short of touching by no more than [`SAME_INSTANT`] of their contact distance
+    /// and closing: struck at the instant they touch, just after the step's end.
+    AboutToTouch,
+}
+
 /// Solves the contact between a and b, or returns `None` when they do not touch.
 ///
 /// If they approach (`v_rel = (v_b − v_a)·n < 0`) the impulse is
@@ -82,6 +99,51 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     if dist2 >= reach * reach {
         return None;
     }
+    Some(overlapping_contact(a, b, restitution, dt, d, reach, dist2))
+}
+
+/// Solves the contact between a and b as [`contact_ball_ball`] does when they overlap, and strikes
+/// them at the instant they touch when they are short of touching by no more than
+/// [`SAME_INSTANT`] of their contact distance (a rounding) and closing; returns `None` otherwise.
+///
+/// A step that ends on an impact leaves the pair overlapping by a rounding or short of touching
+/// by one, and two impacts of one instant (a row struck from both ends at once, each striker
+/// reaching its end at t = 1 s exactly, dt = 1 ms) go one step apart when only overlaps count:
+/// the wave from the end that overlapped first runs a ball ahead. The pair about to touch is
+/// struck now as at its instant, just after the step's end: the normal is taken there, its
+/// `replayed` instant is negative (after the end), and each ball moves back by its velocity
+/// change times the time to that instant, so that from the instant on it is where the collision
+/// at it puts it (the replay, run backwards). Struck at the end along the line of centres instead,
+/// the collision comes early by up to the gap (lockstep strays from the exact engine by 4.7e-8 m
+/// in `tests/exact_convergence.rs`, whose bound is 1e-9).
+#[inline]
+pub fn contact_ball_ball_or_touching(
+    a: &ContactBody,
+    b: &ContactBody,
+    restitution: f64,
+    dt: f64,
+) -> Option<(BallBallContact, BallBallTouch)> {
+    let d = b.position - a.position;
+    let reach = a.radius + b.radius;
+    let dist2 = d.length_squared();
+    if dist2 >= reach * reach {
+        return touching_contact(a, b, restitution, d, reach, dist2).map(|c| (c, BallBallTouch::AboutToTouch));
+    }
+    Some((overlapping_contact(a, b, restitution, dt, d, reach, dist2), BallBallTouch::Overlapping))
+}
+
+/// The contact of overlapping balls (see [`contact_ball_ball`]), from `d = x_b − x_a`, the
+/// contact distance `reach` and `dist2 = |d|²`.
+#[inline(always)]
+fn overlapping_contact(
+    a: &ContactBody,
+    b: &ContactBody,
+    restitution: f64,
+    dt: f64,
+    d: DVec2,
+    reach: f64,
+    dist2: f64,
+) -> BallBallContact {
     let dist = dist2.sqrt();
     // Below a billionth of the contact distance the direction of d is noise: use a fixed normal.
     let mut normal = if dist > 1e-9 * reach { d / dist } else { coincident_normal(a.id, b.id) };
@@ -92,8 +154,7 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
     // the instant solves |d − u·s| = R going back s (the larger root; uniform forces leave the
     // relative motion straight), and the normal is taken there, so an oblique collision comes
     // out as the exact one does.
-    let (uu, du) = (u.length_squared(), d.dot(u));
-    let disc = du * du - uu * (dist2 - reach * reach);
+    let (uu, du, disc) = touch_quadratic(d, u, dist2, reach);
     if dt > 0.0 && du < 0.0 && uu > 0.0 && disc >= 0.0 {
         let s = (du + disc.sqrt()) / uu;
         let at = d - u * s;
@@ -103,9 +164,7 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
         }
     }
     let v_rel = u.dot(normal);
-    let impulse = if v_rel < 0.0 { -(1.0 + restitution) * v_rel / w } else { 0.0 };
-    let velocity_change_a = -impulse * a.inverse_mass * normal;
-    let velocity_change_b = impulse * b.inverse_mass * normal;
+    let (impulse, velocity_change_a, velocity_change_b) = normal_impulse(a, b, normal, v_rel, restitution);
     let replayed = (v_rel < 0.0 && penetration <= -v_rel * dt).then(|| {
         // The time since contact along the relative motion (exact for head-on, where it is
         // penetration / |v_rel|).
@@ -115,16 +174,74 @@ pub fn contact_ball_ball(a: &ContactBody, b: &ContactBody, restitution: f64, dt:
         Some(tau) => (velocity_change_a * tau, velocity_change_b * tau),
         None => (-penetration * (a.inverse_mass / w) * normal, penetration * (b.inverse_mass / w) * normal),
     };
+    BallBallContact { normal, penetration, impulse, velocity_change_a, velocity_change_b, shift_a, shift_b, replayed }
+}
+
+/// The contact of balls that do not overlap (`dist2 ≥ reach²`, as [`overlapping_contact`] takes
+/// them) but are about to touch (see [`contact_ball_ball_or_touching`]), or `None`.
+#[inline(always)]
+fn touching_contact(
+    a: &ContactBody,
+    b: &ContactBody,
+    restitution: f64,
+    d: DVec2,
+    reach: f64,
+    dist2: f64,
+) -> Option<BallBallContact> {
+    if dist2 > (reach * (1.0 + SAME_INSTANT)).powi(2) {
+        return None;
+    }
+    let u = b.velocity - a.velocity;
+    // The instant they touch, s ahead along the relative motion: |d + u·s| = R, the earlier
+    // root; none if they pass each other by.
+    let (uu, du, disc) = touch_quadratic(d, u, dist2, reach);
+    if du >= 0.0 || uu <= 0.0 || disc < 0.0 {
+        return None;
+    }
+    let s = ((-du - disc.sqrt()) / uu).max(0.0);
+    let at = d + u * s;
+    let normal = at / at.length();
+    let v_rel = u.dot(normal);
+    if v_rel >= 0.0 {
+        return None;
+    }
+    let (impulse, velocity_change_a, velocity_change_b) = normal_impulse(a, b, normal, v_rel, restitution);
     Some(BallBallContact {
         normal,
-        penetration,
+        penetration: 0.0,
         impulse,
         velocity_change_a,
         velocity_change_b,
-        shift_a,
-        shift_b,
-        replayed,
+        shift_a: -velocity_change_a * s,
+        shift_b: -velocity_change_b * s,
+        replayed: Some(-s),
     })
+}
+
+/// The terms of the instants s at which balls `d = x_b − x_a` apart (`dist2 = |d|²`), of relative
+/// velocity `u = v_b − v_a`, are `reach` apart: `|d + u·s|² = R²` is
+/// `uu·s² + 2·du·s + (dist2 − R²) = 0`. Returns `(uu, du, disc)`, disc the discriminant over 4:
+/// `du² − uu·(dist2 − R²)`. Both ways of meeting solve it, each for its own root.
+#[inline(always)]
+fn touch_quadratic(d: DVec2, u: DVec2, dist2: f64, reach: f64) -> (f64, f64, f64) {
+    let (uu, du) = (u.length_squared(), d.dot(u));
+    (uu, du, du * du - uu * (dist2 - reach * reach))
+}
+
+/// The impulse along `normal` of a pair whose normal relative velocity is `v_rel`:
+/// `J = −(1 + e)·v_rel / (1/m_a + 1/m_b)` when it approaches (`v_rel < 0`), none when it
+/// separates already; and the velocity changes it gives, −J·n/m_a to a and +J·n/m_b to b (equal
+/// and opposite momenta). Returns `(J, Δv_a, Δv_b)`.
+#[inline(always)]
+fn normal_impulse(
+    a: &ContactBody,
+    b: &ContactBody,
+    normal: DVec2,
+    v_rel: f64,
+    restitution: f64,
+) -> (f64, DVec2, DVec2) {
+    let impulse = if v_rel < 0.0 { -(1.0 + restitution) * v_rel / (a.inverse_mass + b.inverse_mass) } else { 0.0 };
+    (impulse, -impulse * a.inverse_mass * normal, impulse * b.inverse_mass * normal)
 }
 
 /// One wall bounce along the wall's inward normal. `s` is the signed distance of the ball's

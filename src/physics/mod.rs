@@ -27,7 +27,10 @@ pub use ball_steps::{BallSteps, advance_ball};
 pub use barnes_hut::{BarnesHut, LEAF_SIZE, NearBall, near_force};
 pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
-pub use contact::{BallBallContact, ContactBody, coincident_normal, contact_ball_ball, contact_ball_wall};
+pub use contact::{
+    BallBallContact, BallBallTouch, ContactBody, SAME_INSTANT, coincident_normal, contact_ball_ball,
+    contact_ball_ball_or_touching, contact_ball_wall,
+};
 pub use contact_solver::{
     BallResponse, Contact, ContactParams, ContactSolver, ImpactScratch, ImpactTally, MAX_IMPACT_ROUNDS,
     MAX_POSITION_PASSES, MAX_REDETECTIONS, MAX_RESTING_PASSES, MAX_ROUND_ITERATIONS, MAX_SUB_SPANS, NEVER, RESTED,

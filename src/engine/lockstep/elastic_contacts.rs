@@ -37,8 +37,8 @@ use rayon::prelude::*;
 use super::PARALLEL_MIN_PAIRS;
 use super::contact_solver::{Fixed, SlotBodies, split_runs};
 use crate::physics::{
-    BallBallContact, Bodies, BroadPhase, ContactBody, Field, RoundContact, WallImpulses, contact_ball_ball,
-    contact_ball_wall, solve_simultaneous,
+    BallBallTouch, Bodies, BroadPhase, ContactBody, Field, RoundContact, SAME_INSTANT, WallImpulses,
+    contact_ball_ball_or_touching, contact_ball_wall, solve_simultaneous,
 };
 
 /// Impulses applied and pairs still overlapping in one pass (or summed over passes), and the
@@ -543,41 +543,48 @@ fn solve_pairs(
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
         let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         let (a, b) = (body(fi, i), body(fj, j));
-        let contact = contact_ball_ball(&a, &b, e, dt).or_else(|| {
-            // A pair short of touching by the margin: struck only when it closes fast.
-            touching_contact(&a, &b, e).filter(|c| c.impulse * (a.inverse_mass + b.inverse_mass) > (1.0 + e) * together)
-        });
-        if let Some(c) = contact {
-            // J = (1 + e)·|v_rel|/(1/m_a + 1/m_b).
-            let fast = c.impulse > 0.0 && c.impulse * (a.inverse_mass + b.inverse_mass) > (1.0 + e) * together;
-            tally.active += 1;
-            if fast && (marks.fast_in[i] == marks.pass || marks.fast_in[j] == marks.pass) {
-                // A fast impulse of this pass struck one of its balls: the impact this one is
-                // waits for the next pass, as the next round of sequential impacts, judged on
-                // the state this pass leaves. Struck now, the impulse just given would run on
-                // through the pairs that follow in list order within the pass, and the
-                // numbering would pick the outcome (a row struck from both ends at once: the
-                // wave from the end that comes first in the list went through the whole row).
+        let Some((c, touch)) = contact_ball_ball_or_touching(&a, &b, e, dt) else { continue };
+        // J = (1 + e)·|v_rel|/(1/m_a + 1/m_b).
+        let fast = c.impulse > 0.0 && c.impulse * (a.inverse_mass + b.inverse_mass) > (1.0 + e) * together;
+        if touch == BallBallTouch::AboutToTouch && !fast {
+            // A pair short of touching by a rounding is struck only when it closes fast, as the
+            // inelastic solver strikes every pair within its touch margin. A step that ends on
+            // an impact leaves its pairs overlapping by a rounding or short of touching by one,
+            // and struck only when overlapping, two impacts of one instant go one step apart: a
+            // row struck from both ends at once (each striker reaching its end at t = 1 s
+            // exactly, dt = 1 ms) leaves its strikers at −2.220 and 1.333 m/s where the rounds
+            // give ∓1.753, and a ball at rest struck at once by balls at 4 and −3 m/s comes out
+            // as the sequential impacts (0, −3 and 4 m/s) where the round gives 2/3, −10/3 and
+            // 11/3.
+            continue;
+        }
+        tally.active += 1;
+        if fast && (marks.fast_in[i] == marks.pass || marks.fast_in[j] == marks.pass) {
+            // A fast impulse of this pass struck one of its balls: the impact this one is
+            // waits for the next pass, as the next round of sequential impacts, judged on
+            // the state this pass leaves. Struck now, the impulse just given would run on
+            // through the pairs that follow in list order within the pass, and the
+            // numbering would pick the outcome (a row struck from both ends at once: the
+            // wave from the end that comes first in the list went through the whole row).
+            tally.fast += 1;
+            tally.deferred += 1;
+            continue;
+        }
+        if c.impulse > 0.0 {
+            if fast {
                 tally.fast += 1;
-                tally.deferred += 1;
-                continue;
+                marks.fast_in[i] = marks.pass;
+                marks.fast_in[j] = marks.pass;
             }
-            if c.impulse > 0.0 {
-                if fast {
-                    tally.fast += 1;
-                    marks.fast_in[i] = marks.pass;
-                    marks.fast_in[j] = marks.pass;
-                }
-                v[i] += c.velocity_change_a;
-                v[j] += c.velocity_change_b;
-                tally.impulses += 1;
-            }
-            x[i] += c.shift_a;
-            x[j] += c.shift_b;
-            if let Some(t) = c.replayed.filter(|_| c.impulse > 0.0) {
-                marks.replayed(fi, i, t);
-                marks.replayed(fj, j, t);
-            }
+            v[i] += c.velocity_change_a;
+            v[j] += c.velocity_change_b;
+            tally.impulses += 1;
+        }
+        x[i] += c.shift_a;
+        x[j] += c.shift_b;
+        if let Some(t) = c.replayed.filter(|_| c.impulse > 0.0) {
+            marks.replayed(fi, i, t);
+            marks.replayed(fj, j, t);
         }
     }
     tally
@@ -596,7 +603,7 @@ fn simultaneous(
     index: &impl Fn(usize) -> (usize, usize),
 ) -> Vec<Vec<u32>> {
     // (ball, pair) for both balls of every fast pair: overlapping, or short of touching by no
-    // more than [`SAME_INSTANT`] (see [`touching_contact`]).
+    // more than [`SAME_INSTANT`] (see [`contact_ball_ball_or_touching`]).
     let mut ends: Vec<(usize, u32)> = Vec::new();
     for (n, &(k, m)) in pairs.iter().enumerate() {
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
@@ -647,68 +654,6 @@ fn simultaneous(
     groups
 }
 
-/// The contact of two balls short of touching by no more than [`SAME_INSTANT`] of their contact
-/// distance (a rounding) and closing, struck at the instant they touch, just after the step's
-/// end: the normal there, and each ball shifted back by its velocity change times that time,
-/// its `replayed` instant negative (after the end). (Struck at the end along the line of centres
-/// instead, a collision came early by up to the gap: lockstep strayed from the exact engine by
-/// 4.7e-8 m in `tests/exact_convergence.rs`, whose bound is 1e-9, with the gap allowed up to the
-/// touch margin, 1e-6; 1.4e-8 m struck at the instant, impacts then going out of order.)
-///
-/// The passes strike such a pair when it closes faster than the chain speed, as the inelastic
-/// solver does every pair within its touch margin: a step that ends on an impact leaves the pair
-/// overlapping by a rounding or short of touching by one, and two impacts of one instant (a row
-/// struck from both ends at once, each striker reaching its end at t = 1 s exactly, dt = 1 ms)
-/// went one step apart — the wave from the end that overlapped first ran a ball ahead, and the
-/// strikers left at −2.220 and 1.333 m/s where the rounds give ∓1.753. A ball at rest struck at
-/// once by balls at 4 and −3 m/s came out likewise as the sequential impacts (0, −3 and 4 m/s)
-/// where the round gives 2/3, −10/3 and 11/3, as the inelastic solver did at e = 0.99.
-fn touching_contact(a: &ContactBody, b: &ContactBody, e: f64) -> Option<BallBallContact> {
-    let d = b.position - a.position;
-    let reach = a.radius + b.radius;
-    let dist2 = d.length_squared();
-    if dist2 > (reach * (1.0 + SAME_INSTANT)).powi(2) || dist2 < reach * reach {
-        return None;
-    }
-    let u = b.velocity - a.velocity;
-    // The instant they touch, s ahead along the relative motion: |d + u·s| = R, the earlier
-    // root; none if they pass each other by.
-    let (uu, du) = (u.length_squared(), d.dot(u));
-    let disc = du * du - uu * (dist2 - reach * reach);
-    if du >= 0.0 || uu <= 0.0 || disc < 0.0 {
-        return None;
-    }
-    let s = ((-du - disc.sqrt()) / uu).max(0.0);
-    let at = d + u * s;
-    let normal = at / at.length();
-    let v_rel = u.dot(normal);
-    if v_rel >= 0.0 {
-        return None;
-    }
-    let impulse = -(1.0 + e) * v_rel / (a.inverse_mass + b.inverse_mass);
-    let (velocity_change_a, velocity_change_b) =
-        (-impulse * a.inverse_mass * normal, impulse * b.inverse_mass * normal);
-    // Struck now as at that instant: each ball moves back by its velocity change times s, so that
-    // from the instant on it is where the collision at it puts it (the replay, run backwards).
-    Some(BallBallContact {
-        normal,
-        penetration: 0.0,
-        impulse,
-        velocity_change_a,
-        velocity_change_b,
-        shift_a: -velocity_change_a * s,
-        shift_b: -velocity_change_b * s,
-        replayed: Some(-s),
-    })
-}
-
-/// How far apart, as a share of their contact distance, two impacts' balls may be when they
-/// count as struck at one instant: well above the positions' accumulated rounding (1e-10 m after
-/// 10⁵ steps of a 1 m ball), well below any real difference. (At the touch margin, 1e-6, two
-/// impacts 1.4e-8 m apart were struck at once where the exact engine takes them one after the
-/// other, and lockstep strayed from it by 1.4e-8 m: `tests/exact_convergence.rs`.)
-const SAME_INSTANT: f64 = 1e-9;
-
 /// The most contacts struck at once: more are taken one by one (a few balls striking together;
 /// the sweeps of a larger round converge slower, and one that does not converge would not keep
 /// the energy).
@@ -718,8 +663,8 @@ const MAX_TOGETHER: usize = 8;
 /// the group met, or returns `None` and changes nothing when they are not one simultaneous
 /// impact: fewer than two of them or more than [`MAX_TOGETHER`] approaching, replayed contacts that
 /// touched more than a millionth of the step apart, or sweeps that did not converge (the caller
-/// then takes them one by one, as if they were not a group). each pair still touching gets its normal at the instant of contact
-/// ([`contact_ball_ball`]); the impulses of those approaching are solved together
+/// then takes them one by one, as if they were not a group). Each pair still touching gets its
+/// normal at the instant of contact ([`contact_ball_ball_or_touching`]); the impulses of those approaching are solved together
 /// ([`solve_simultaneous`], Jacobi sweeps with each ball's mass split among its contacts: every
 /// update from the same velocities, so the numbering picks nothing and a mirror-symmetric strike
 /// comes out mirror-symmetric); each ball is replayed by its velocity change times the longest
@@ -772,7 +717,7 @@ fn strike_together(
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
         let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         let (a, b) = (body(fi, i), body(fj, j));
-        let Some(c) = contact_ball_ball(&a, &b, e, dt).or_else(|| touching_contact(&a, &b, e)) else { continue };
+        let Some((c, _)) = contact_ball_ball_or_touching(&a, &b, e, dt) else { continue };
         tally.active += 1;
         let (la, lb) = (local(&mut balls, &mut tau, (fi, i)), local(&mut balls, &mut tau, (fj, j)));
         match c.replayed {
@@ -804,7 +749,7 @@ fn strike_together(
         return None;
     }
     // A ball of pushed contacts alone is not replayed; one struck only where it is about to
-    // touch (a negative instant, see [`touching_contact`]) is moved back.
+    // touch (a negative instant, see [`contact_ball_ball_or_touching`]) is moved back.
     for t in tau.iter_mut().filter(|t| **t == f64::NEG_INFINITY) {
         *t = 0.0;
     }
