@@ -49,20 +49,12 @@ pub struct Tally {
     pub impulses: u64,
     pub active: u64,
     pub fast: u64,
-    /// Fast pairs left to the next pass because a fast impulse of this pass struck a ball of
-    /// theirs (see [`solve_pairs`]).
-    pub deferred: u64,
 }
 
 impl std::ops::Add for Tally {
     type Output = Tally;
     fn add(self, o: Tally) -> Tally {
-        Tally {
-            impulses: self.impulses + o.impulses,
-            active: self.active + o.active,
-            fast: self.fast + o.fast,
-            deferred: self.deferred + o.deferred,
-        }
+        Tally { impulses: self.impulses + o.impulses, active: self.active + o.active, fast: self.fast + o.fast }
     }
 }
 
@@ -567,7 +559,6 @@ fn solve_pairs(
             // numbering would pick the outcome (a row struck from both ends at once: the
             // wave from the end that comes first in the list went through the whole row).
             tally.fast += 1;
-            tally.deferred += 1;
             continue;
         }
         if c.impulse > 0.0 {
