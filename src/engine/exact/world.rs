@@ -175,6 +175,17 @@ enum Motion {
     Resting,
 }
 
+/// What a ball near a member of a round being gathered is to it ([`World::gather_round`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Join {
+    /// Not joined by this pair.
+    No,
+    /// Joined: the ball is a member and the pair one of the round's.
+    Yes,
+    /// The round is refused: the gathering stops.
+    Refuse,
+}
+
 /// What predicting and processing need of a ball, in one 64-byte cache line: its position and
 /// velocity at instant `t`, its acceleration since, and its radius.
 #[derive(Clone, Copy, Debug, Default)]
@@ -1487,29 +1498,11 @@ impl World {
             members.truncate(2);
             members.extend(joined.iter().filter(|&&k| k != i && k != j));
             pairs.truncate(1);
-            let mut g = 0;
-            while g < members.len() && members.len() < MAX_GROUP {
-                let m = members[g];
-                near.clear();
-                self.cells.for_each_near(m, |k| near.push(k));
-                for &k in &near {
-                    if k == m || left_out.contains(&k) || !self.touching(m, k) || !closing_fast(self, m, k) {
-                        continue;
-                    }
-                    let slot = match members.iter().position(|&x| x == k) {
-                        Some(s) => s,
-                        None => {
-                            members.push(k);
-                            members.len() - 1
-                        }
-                    };
-                    let pair = (g.min(slot), g.max(slot));
-                    if !pairs.contains(&pair) {
-                        pairs.push(pair);
-                    }
-                }
-                g += 1;
-            }
+            // Never refused: every contact closing fast joins, until the round holds MAX_GROUP
+            // balls (the neighbours of the member that reaches it may still take it past).
+            self.gather_round(&mut members, &mut pairs, &mut near, MAX_GROUP, |w, _, m, k| {
+                if left_out.contains(&k) || !w.touching(m, k) || !closing_fast(w, m, k) { Join::No } else { Join::Yes }
+            });
             // A ball at rest that touches a ball at rest outside the round: if the balls at rest
             // it touches through each other all lie on walls (a row on the floor), they join the
             // round; else it is in a pile, left out, and the round gathered again without it
@@ -1575,26 +1568,21 @@ impl World {
     /// nothing, when i and j touch nothing else, when the cluster holds a ball that is not free
     /// or more than [`MAX_GROUP`] balls, or when no other contact in it closes fast.
     fn strike_free_cluster(&mut self, i: usize, j: usize) -> bool {
-        let free = |w: &World, k: usize| w.cold[k].motion == Motion::Free;
         let mut members = vec![i, j];
-        let mut near = Vec::new();
-        let mut g = 0;
-        while g < members.len() {
-            let m = members[g];
-            near.clear();
-            self.cells.for_each_near(m, |k| near.push(k));
-            for &k in &near {
-                if k == m || members.contains(&k) || !self.touching(m, k) {
-                    continue;
-                }
-                if !free(self, k) || members.len() == MAX_GROUP {
-                    return false;
-                }
-                members.push(k);
+        // The touching pairs the cluster is joined by: not the round's contacts, found below.
+        let mut joined = vec![(0usize, 1usize)];
+        // Every ball touching the cluster joins; one that is not free, or one past MAX_GROUP
+        // balls, refuses it (so the gathering itself needs no limit).
+        let whole = self.gather_round(&mut members, &mut joined, &mut Vec::new(), usize::MAX, |w, members, m, k| {
+            if members.contains(&k) || !w.touching(m, k) {
+                Join::No
+            } else if w.cold[k].motion != Motion::Free || members.len() == MAX_GROUP {
+                Join::Refuse
+            } else {
+                Join::Yes
             }
-            g += 1;
-        }
-        if members.len() == 2 {
+        });
+        if !whole || members.len() == 2 {
             return false;
         }
         // The contacts closing fast, as slots in `members`; the pair (i, j) first.
@@ -1631,39 +1619,82 @@ impl World {
         true
     }
 
-    /// The balls at rest that ball `m` (at rest) touches through each other, outside `members`,
-    /// if every one of them lies on a wall that holds it against its acceleration and the round
-    /// stays within [`MAX_GROUP`] balls: a row lying on the floor, or balls side by side in a
-    /// corner. Such balls are held by walls alone, which take no impulse along them, so a ball
-    /// struck into the row passes the impulse along it (a cradle lying on the floor). `None` for
-    /// a pile (a ball at rest on other balls), whose balls stay held immovable (the rest model).
+    /// The balls at rest that ball `m` (at rest, on a wall) touches through each other, outside
+    /// `members`, if every one of them lies on a wall that holds it against its acceleration and
+    /// the round stays within [`MAX_GROUP`] balls: a row lying on the floor, or balls side by
+    /// side in a corner. Such balls are held by walls alone, which take no impulse along them, so
+    /// a ball struck into the row passes the impulse along it (a cradle lying on the floor).
+    /// `None` for a pile (a ball at rest on other balls), whose balls stay held immovable (the
+    /// rest model).
     fn resting_row(&self, m: usize, members: &[usize]) -> Option<Vec<usize>> {
         let on_a_wall = |k: usize| {
             let (x, r, tol) = (self.hot[k].x, self.hot[k].r, 1e-6 * self.cold[k].diameter);
             let a = self.free_accel(k);
             (0..4).any(|w| WALL_NORMALS[w].dot(a) < 0.0 && self.wall_gap(w, x, r) <= tol)
         };
-        let mut row: Vec<usize> = Vec::new();
-        let mut stack = vec![m];
-        while let Some(k) = stack.pop() {
-            let mut found = Vec::new();
-            self.cells.for_each_near(k, |n| {
-                if n != k && self.cold[n].motion == Motion::Resting && !members.contains(&n) && !row.contains(&n) {
-                    found.push(n);
-                }
-            });
-            for n in found {
-                if row.contains(&n) || !self.touching(k, n) {
+        if !on_a_wall(m) {
+            return None;
+        }
+        // The row from m (slot 0), its pairs not needed.
+        let mut row = vec![m];
+        let whole = self.gather_round(&mut row, &mut Vec::new(), &mut Vec::new(), usize::MAX, |w, row, s, k| {
+            if w.cold[k].motion != Motion::Resting || members.contains(&k) || row.contains(&k) || !w.touching(s, k) {
+                Join::No
+            } else if !on_a_wall(k) || members.len() + row.len() > MAX_GROUP {
+                Join::Refuse
+            } else {
+                Join::Yes
+            }
+        });
+        whole.then(|| row.split_off(1))
+    }
+
+    /// Gathers the balls of a round of simultaneous impacts from `members` (the two of a
+    /// collision, slots 0 and 1) through their neighbours, for [`World::strike_simultaneous`]
+    /// and [`World::strike_free_cluster`], which differ only in which neighbours join (and a row
+    /// of balls at rest from one of them, for [`World::resting_row`]): each
+    /// member in turn, while there are fewer than `limit`, asks `joins(world, members, m, k)` of
+    /// every other ball k near it (m the member) whether k joins by the pair (m, k); k is then
+    /// added to `members` and the pair to `pairs` (as slots in `members`, the lower first), each
+    /// if new. Returns false as soon as `joins` refuses the round, `members` and `pairs` left
+    /// part-gathered; `near` is scratch.
+    fn gather_round(
+        &self,
+        members: &mut Vec<usize>,
+        pairs: &mut Vec<(usize, usize)>,
+        near: &mut Vec<usize>,
+        limit: usize,
+        joins: impl Fn(&World, &[usize], usize, usize) -> Join,
+    ) -> bool {
+        let mut g = 0;
+        while g < members.len() && members.len() < limit {
+            let m = members[g];
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in near.iter() {
+                if k == m {
                     continue;
                 }
-                if !on_a_wall(n) || members.len() + row.len() == MAX_GROUP {
-                    return None;
+                match joins(self, members, m, k) {
+                    Join::No => continue,
+                    Join::Refuse => return false,
+                    Join::Yes => {}
                 }
-                row.push(n);
-                stack.push(n);
+                let slot = match members.iter().position(|&x| x == k) {
+                    Some(s) => s,
+                    None => {
+                        members.push(k);
+                        members.len() - 1
+                    }
+                };
+                let pair = (g.min(slot), g.max(slot));
+                if !pairs.contains(&pair) {
+                    pairs.push(pair);
+                }
             }
+            g += 1;
         }
-        on_a_wall(m).then_some(row)
+        true
     }
 
     /// Whether ball `k` touches a ball at rest that `counts` (within a millionth of `k`'s
