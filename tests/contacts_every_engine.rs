@@ -739,18 +739,28 @@ fn row_rounds(masses: &[f64], mut v: Vec<f64>, e: f64) -> Vec<f64> {
     panic!("the rounds did not end");
 }
 
-/// A row of `n` touching balls (1 kg, 1 m) at rest from x = 22 on y = 10, struck at once from
-/// both ends by balls of 2 kg at ±`speed` m/s, both touching the row's ends at t = 1 s (on the
-/// end of a 1 ms step), ball restitution `e`, no gravity. Returns each ball's x-velocity after
-/// 1.5 s, left to right.
-fn row_struck_from_both_ends(kind: EngineKind, e: f64, n: usize, speed: f64) -> Vec<f64> {
-    let mut balls = vec![spec([21.0 - speed, 10.0], [speed, 0.0], 2.0, 1.0)];
-    for k in 0..n {
-        balls.push(spec([22.0 + k as f64, 10.0], [0.0, 0.0], 1.0, 1.0));
+/// A row of touching balls (1 m) at rest from x = 22 on height `y`, masses `row`, struck along
+/// it by balls of `strikers` (mass, speed; the first from the left, the second, if any, from the
+/// right), each touching its end of the row at t = 1 s (on the end of a 1 ms step), ball
+/// restitution `e`, walls 1, gravity if `gravity`. Returns the run's end after 1.5 s (the balls
+/// left to right).
+fn struck_row(kind: EngineKind, e: f64, y: f64, gravity: bool, row: &[f64], strikers: &[(f64, f64)]) -> End {
+    let (m, speed) = strikers[0];
+    let mut balls = vec![spec([21.0 - speed, y], [speed, 0.0], m, 1.0)];
+    for (k, &mass) in row.iter().enumerate() {
+        balls.push(spec([22.0 + k as f64, y], [0.0, 0.0], mass, 1.0));
     }
-    balls.push(spec([22.0 + n as f64 + speed, 10.0], [-speed, 0.0], 2.0, 1.0));
-    let s = scene(48.0, 20.0, 1.0, e, false, DEFAULT, &balls);
-    let end = run(kind, &s, 1.5);
+    if let Some(&(m, speed)) = strikers.get(1) {
+        balls.push(spec([22.0 + row.len() as f64 + speed, y], [-speed, 0.0], m, 1.0));
+    }
+    run(kind, &scene(48.0, 20.0, 1.0, e, gravity, DEFAULT, &balls), 1.5)
+}
+
+/// A row of `n` touching balls (1 kg, 1 m) at rest on y = 10, struck at once from both ends by
+/// balls of 2 kg at ±`speed` m/s ([`struck_row`]), no gravity. Returns each ball's x-velocity
+/// after 1.5 s, left to right.
+fn row_struck_from_both_ends(kind: EngineKind, e: f64, n: usize, speed: f64) -> Vec<f64> {
+    let end = struck_row(kind, e, 10.0, false, &vec![1.0; n], &[(2.0, speed), (2.0, speed)]);
     assert_eq!(end.walls, 0.0, "{kind} e {e} n {n}: a ball reached a wall");
     end.balls.iter().map(|b| b.velocity.x).collect()
 }
@@ -829,25 +839,6 @@ fn a_row_struck_from_both_ends_at_once_leaves_a_mirror_image() {
     none_failed(failures);
 }
 
-/// A row of touching balls (1 m) lying at rest on the floor from x = 22 under gravity, masses
-/// `row`, struck along the floor by balls of `strikers` (mass, speed; the first from the left,
-/// the second from the right), each touching its end of the row at t = 1 s (on the end of a
-/// 1 ms step), ball restitution `e`, walls 1. Returns each ball's velocity after 1.5 s, left to
-/// right, and the walls' impulses.
-fn floor_row(kind: EngineKind, e: f64, row: &[f64], strikers: &[(f64, f64)]) -> (Vec<DVec2>, WallImpulses) {
-    let (m, speed) = strikers[0];
-    let mut balls = vec![spec([21.0 - speed, 0.5], [speed, 0.0], m, 1.0)];
-    for (k, &mass) in row.iter().enumerate() {
-        balls.push(spec([22.0 + k as f64, 0.5], [0.0, 0.0], mass, 1.0));
-    }
-    if let Some(&(m, speed)) = strikers.get(1) {
-        balls.push(spec([22.0 + row.len() as f64 + speed, 0.5], [-speed, 0.0], m, 1.0));
-    }
-    let s = scene(48.0, 20.0, 1.0, e, true, DEFAULT, &balls);
-    let end = run(kind, &s, 1.5);
-    (end.balls.iter().map(|b| b.velocity).collect(), end.gauges)
-}
-
 /// A row lying on the floor, struck along it, is a cradle: the floor is frictionless and takes
 /// no impulse along the row, so the row passes the impulse on as the rounds of sequential
 /// impacts say ([`row_rounds`]) at every e from 0 to 1, on every engine, horizontal momentum
@@ -882,7 +873,9 @@ fn a_row_lying_on_the_floor_struck_along_it_is_a_cradle_on_every_engine() {
             let mut striker = Vec::new();
             for e in [0.0, 0.5, 0.99, 1.0] {
                 let want = row_rounds(&masses, start.clone(), e);
-                let (v, gauges) = floor_row(kind, e, row, strikers);
+                let end = struck_row(kind, e, 0.5, true, row, strikers);
+                let v: Vec<DVec2> = end.balls.iter().map(|b| b.velocity).collect();
+                let gauges = end.gauges;
                 let vx: Vec<f64> = v.iter().map(|u| u.x).collect();
                 let off = vx.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
                 let lifted = v.iter().map(|u| u.y.abs()).fold(0.0, f64::max);

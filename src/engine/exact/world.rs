@@ -1508,8 +1508,7 @@ impl World {
             // round; else it is in a pile, left out, and the round gathered again without it
             // (the balls it alone joined to the round leave with it).
             let (before, joined_before) = (left_out.len(), joined.len());
-            for s in 0..members.len() {
-                let m = members[s];
+            for &m in &members {
                 if !resting(self, m) || !self.touches_resting(m, |k| !members.contains(&k)) {
                     continue;
                 }
