@@ -131,12 +131,21 @@ pub fn contact_ball_ball_or_touching(
     let reach = a.radius + b.radius;
     let dist2 = d.length_squared();
     if dist2 >= reach * reach {
-        if dist2 > (reach * (1.0 + SAME_INSTANT)).powi(2) {
+        if out_of_reach(dist2, reach) {
             return None;
         }
         return touching_contact(a, b, restitution, d, reach, dist2).map(|c| (c, BallBallTouch::AboutToTouch));
     }
     Some((overlapping_contact(a, b, restitution, dt, d, reach, dist2), BallBallTouch::Overlapping))
+}
+
+/// Whether balls `dist2.sqrt()` apart whose radii sum to `reach` are farther apart than
+/// touching by more than [`SAME_INSTANT`] of it: [`contact_ball_ball_or_touching`] has no contact
+/// for them. A loop over many pairs tests this first, on the positions and radii alone, before it
+/// reads the rest of the balls (most pairs of a gas are out of reach).
+#[inline(always)]
+pub fn out_of_reach(dist2: f64, reach: f64) -> bool {
+    dist2 > (reach * (1.0 + SAME_INSTANT)).powi(2)
 }
 
 /// The contact of overlapping balls (see [`contact_ball_ball`]), from `d = x_b − x_a`, the

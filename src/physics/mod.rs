@@ -29,7 +29,7 @@ pub use bodies::Bodies;
 pub use broad_phase::{BIG_BALL_FACTOR, BroadPhase};
 pub use contact::{
     BallBallContact, BallBallTouch, ContactBody, SAME_INSTANT, coincident_normal, contact_ball_ball,
-    contact_ball_ball_or_touching, contact_ball_wall,
+    contact_ball_ball_or_touching, contact_ball_wall, out_of_reach,
 };
 pub use contact_solver::{
     BallResponse, Contact, ContactParams, ContactSolver, ImpactScratch, ImpactTally, MAX_IMPACT_ROUNDS,
