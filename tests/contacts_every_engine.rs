@@ -7,7 +7,10 @@
 //! - a free-falling cluster keeps p₀ + M·g·t whatever collides inside it;
 //! - a ball dropped on a ball resting on the floor rebounds as sequential impacts predict, at
 //!   every e from 0 to 1 and with either ball 5 times the other's mass;
-//! - a ball striking two touching balls between them leaves them mirror images.
+//! - a ball striking two touching balls between them leaves them mirror images;
+//! - a pyramid of three on a frictionless floor spreads as the constrained motion says, and
+//!   stands between walls that hold its bottom balls (lockstep and threaded; the exact engine's
+//!   pyramid stands, an ignored test).
 //!
 //! The threaded engine runs in wall time, so its runs are short (under half a second of
 //! simulated time each) and one at a time. Where a check needs the balls' instant it reads it off
@@ -990,5 +993,130 @@ fn a_pyramid_struck_on_top_leaves_a_mirror_image() {
             }
         }
     }
+    none_failed(failures);
+}
+
+/// The speed (m/s) each bottom ball of a frictionless pyramid leaves with: a ball of mass `top`
+/// at rest on two of mass `bottom` (diameter `d`) that touch each other's sides at rest on a
+/// frictionless floor, their centres at 60°. While the top ball presses them, the angle θ of
+/// each line of centres (from the floor) says everything: the bottom balls at ±d·cos θ, the top
+/// ball d·sin θ above them, and energy gives their speed as θ falls,
+/// ṡ² = 2·M·g·d·u²·(u₀ − u) / (M·(1 − u²) + 2·m·u²), u = sin θ. The contacts push only, so
+/// the bottom balls speed up until the push is zero, where ṡ is largest: they part there and
+/// keep it.
+fn pyramid_spread(top: f64, bottom: f64, d: f64) -> f64 {
+    let u0 = 60f64.to_radians().sin();
+    let speed2 = |u: f64| 2.0 * top * G * d * u * u * (u0 - u) / (top * (1.0 - u * u) + 2.0 * bottom * u * u);
+    // Golden-section search for the largest ṡ² on (0, u₀): it rises from 0 and falls to 0 once.
+    let (mut lo, mut hi) = (0.0, u0);
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    while hi - lo > 1e-12 {
+        let (a, b) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        if speed2(a) < speed2(b) {
+            lo = a;
+        } else {
+            hi = b;
+        }
+    }
+    speed2(0.5 * (lo + hi)).sqrt()
+}
+
+/// A pyramid of three balls on the floor is not held: frictionless contacts only push, so the
+/// top ball pushes the two below apart and comes down between them. At e = 0, 0.5 and 1 and with
+/// the top ball 1 and 3 kg (the bottom ones 1 kg, all 1 m), after 1.5 s: the bottom balls leave
+/// at the speed of the constrained motion ([`pyramid_spread`]: 1.2024 m/s under a 1 kg top ball,
+/// 1.4613 under 3 kg), mirror images of each other, the top ball between them, no horizontal
+/// momentum. Between side walls that touch the bottom balls the same pyramid stands: the top
+/// ball stays where it is, the bottom ones still.
+///
+/// Measured (the bounds in [`pyramid_bounds`]): off the constrained motion's speed by at most
+/// 1.3e-3 (relative) at e < 1 on lockstep and threaded, 2.1e-3 at e = 1 on lockstep (3 kg top);
+/// mirror images to 3.8e-7 m/s (lockstep) and 5.1e-7 (threaded), their resting passes taking
+/// the contacts in list order, but lockstep at e = 1, 1.6e-3 m/s (its elastic passes take the
+/// pressing contacts one by one in list order); momentum to 2.3e-15 N·s. Held: the top ball
+/// sinks at most 2.8e-5 m and the bottom balls move at most 8.5e-3 m/s (lockstep, e = 1). Seen
+/// to fail: on the exact engine, whose free pyramid stands (the speed off by 1, the ignored
+/// test below), and with the mirror bound at 1e-12 on lockstep and threaded at e < 1.
+fn pyramid(kind: EngineKind, failures: &mut Vec<String>) {
+    let (d, h) = (1.0, 60f64.to_radians().sin());
+    let (speed_bound, mirror_bound, sink_bound, still_bound) = pyramid_bounds(kind);
+    for top in [1.0, 3.0] {
+        let want = pyramid_spread(top, 1.0, d);
+        for e in [0.0, 0.5, 1.0] {
+            // Free: a field 20 m wide; held: the side walls touch the bottom balls.
+            for (width, held) in [(20.0, false), (2.0, true)] {
+                let c = 0.5 * width;
+                let balls = [
+                    spec([c - 0.5 * d, 0.5 * d], [0.0, 0.0], 1.0, d),
+                    spec([c + 0.5 * d, 0.5 * d], [0.0, 0.0], 1.0, d),
+                    spec([c, 0.5 * d + h * d], [0.0, 0.0], top, d),
+                ];
+                let end = run(kind, &scene(width, 10.0, 0.5, e, true, DEFAULT, &balls), 1.5);
+                let b = &end.balls;
+                let (left, right, apex) = (b[0].velocity, b[1].velocity, b[2].position);
+                if held {
+                    let sunk = (0.5 * d + h * d - apex.y).abs();
+                    let moving = left.length().max(right.length());
+                    check!(
+                        failures,
+                        sunk <= sink_bound,
+                        "{kind} top {top} e {e}: the held pyramid's top sank {sunk:e} m"
+                    );
+                    check!(
+                        failures,
+                        moving <= still_bound,
+                        "{kind} top {top} e {e}: the held pyramid's bottom balls move at {moving:e} m/s"
+                    );
+                    continue;
+                }
+                let off = (right.x - want).abs().max((-left.x - want).abs()) / want;
+                let mirror = (left.x + right.x).abs().max((apex.x - c).abs());
+                let momentum = left.x + right.x + top * b[2].velocity.x;
+                check!(
+                    failures,
+                    off <= speed_bound,
+                    "{kind} top {top} e {e}: bottom balls at {} and {} m/s, want ±{want} (off by {off:e})",
+                    left.x,
+                    right.x
+                );
+                check!(failures, mirror <= mirror_bound(e), "{kind} top {top} e {e}: not a mirror image by {mirror:e}");
+                check!(
+                    failures,
+                    momentum.abs() <= 1e-12,
+                    "{kind} top {top} e {e}: horizontal momentum {momentum:e} N·s"
+                );
+            }
+        }
+    }
+}
+
+/// Per engine: the bottom balls' speed off the constrained motion's (relative), the mirror
+/// difference at restitution e (m/s, m), how far the held top ball may sink (m) and the held
+/// bottom balls move (m/s). See [`pyramid`] for the figures measured.
+fn pyramid_bounds(kind: EngineKind) -> (f64, fn(f64) -> f64, f64, f64) {
+    match kind {
+        EngineKind::Lockstep => (3e-3, |e| if e == 1.0 { 2.5e-3 } else { 1e-6 }, 1e-4, 1.2e-2),
+        _ => (3e-3, |_| 1e-6, 1e-4, 1.2e-2),
+    }
+}
+
+#[test]
+fn a_pyramid_of_three_on_the_floor_spreads_on_lockstep_and_threaded() {
+    let _one = serial();
+    let mut failures = Vec::new();
+    for kind in [EngineKind::Lockstep, EngineKind::Threaded] {
+        pyramid(kind, &mut failures);
+    }
+    none_failed(failures);
+}
+
+#[test]
+#[ignore = "exact engine: the free pyramid stands (bottom balls at rest, 0 m/s against ±1.2024): \
+            its rest model holds a ball at rest when its supports surround its own weight, and a \
+            ball at rest takes any push its supports hold, sideways too (docs/measurements.md, \
+            session 24)"]
+fn exact_pyramid_of_three_on_the_floor_spreads() {
+    let mut failures = Vec::new();
+    pyramid(EngineKind::Exact, &mut failures);
     none_failed(failures);
 }
