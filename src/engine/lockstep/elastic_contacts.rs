@@ -616,10 +616,7 @@ fn solve_pairs(
     index: impl Fn(usize) -> (usize, usize),
 ) -> Tally {
     let mut tally = Tally::default();
-    let groups = match look {
-        Look::None => Vec::new(),
-        look => simultaneous(pairs, fixed, x, v, together, look, marks, &index),
-    };
+    let groups = simultaneous(pairs, fixed, x, v, together, look, marks, &index);
     // Filled anew for the next pass's look.
     marks.unchanged.clear();
     // Per pair, its group (or none); per group, whether it was struck at once (`None`: not yet
@@ -846,7 +843,7 @@ fn strike_together(
     index: &impl Fn(usize) -> (usize, usize),
 ) -> Option<Tally> {
     let mut tally = Tally::default();
-    // The group's balls by their index into `x`/`v` (and into `fixed`, and their mark), and each
+    // The group's balls by their index into `x`/`v` (and into `fixed`, and their slot), and each
     // one's latest contact time.
     let mut balls: Vec<(usize, usize, usize)> = Vec::new();
     let mut tau: Vec<f64> = Vec::new();
@@ -877,7 +874,7 @@ fn strike_together(
     for &n in group {
         let (k, m) = pairs[n as usize];
         let ((fi, i), (fj, j)) = (index(k as usize), index(m as usize));
-        let (mi, mj) = (k as usize - marks.base, m as usize - marks.base);
+        let (mi, mj) = (k as usize, m as usize);
         let body = |f: usize, s: usize| contact_body(fixed, x, v, f, s);
         let (a, b) = (body(fi, i), body(fj, j));
         let Some((c, _)) = contact_ball_ball_or_touching(&a, &b, e, dt) else { continue };
@@ -928,14 +925,14 @@ fn strike_together(
         x[s] += (u - v[s]) * t;
         v[s] = u;
         marks.fast_in[s] = marks.pass;
-        marks.changed_in[mark] = marks.pass;
+        marks.changed(mark as u32);
         if replayed > 0 {
             marks.replayed(f, s, t);
         }
     }
     for (s, mark, dx) in pushes {
         x[s] += dx;
-        marks.changed_in[mark] = marks.pass;
+        marks.changed(mark as u32);
     }
     Some(tally)
 }
