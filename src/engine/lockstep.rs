@@ -25,6 +25,7 @@
 
 mod contact_solver;
 mod elastic_contacts;
+mod elastic_resting;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -46,6 +47,7 @@ use crate::scene::Scene;
 pub use contact_solver::PARALLEL_MIN_PAIRS;
 use contact_solver::{ContactSolver, Inputs};
 use elastic_contacts::{ElasticContacts, ElasticWalls};
+use elastic_resting::ElasticResting;
 
 /// Passes of the elastic contacts over the touching pairs in each (sub-)step.
 const ELASTIC_PASSES: usize = 4;
@@ -140,6 +142,8 @@ pub struct Lockstep {
     contacts: ContactSolver,
     /// The contacts of a perfectly elastic field (see [`Lockstep::elastic`]).
     elastic: ElasticContacts,
+    /// The resting contacts of a perfectly elastic field (see [`ElasticResting`]).
+    elastic_resting: ElasticResting,
     /// Whether the pairs were last found for `elastic` (else for `contacts`).
     pairs_elastic: bool,
     /// The balls near a wall this sub-step (see [`Lockstep::integrate_phase`]).
@@ -206,6 +210,7 @@ impl Lockstep {
             grid_stale: true,
             contacts: ContactSolver::default(),
             elastic: ElasticContacts::default(),
+            elastic_resting: ElasticResting::default(),
             pairs_elastic: false,
             near_walls: Vec::new(),
             adaptive_substeps: true,
@@ -577,6 +582,20 @@ impl Lockstep {
                 self.counters.impulses += outcome.impulses;
                 self.counters.wall_contacts += outcome.wall_bounces;
                 self.wall_impulses.add_all(&outcome.walls);
+                let largest = gravity.length().max((gravity + walls.key_acceleration).length());
+                let resting = self.elastic_resting.solve(
+                    bodies,
+                    &self.near_walls,
+                    |f| elastic.for_each_pair(grid, f),
+                    &walls,
+                    h,
+                    resting_drift(self.integrator, 1),
+                    &Tolerances::new(largest, h),
+                );
+                self.counters.resting += resting.resting;
+                self.counters.unconverged += u64::from(!resting.converged);
+                self.counters.islands_solved += resting.islands_solved;
+                self.wall_impulses.add_all(&resting.walls);
                 self.counters.contacts += t2.elapsed();
                 let t3 = Instant::now();
                 self.finish_phase(pool);
@@ -625,7 +644,6 @@ impl Lockstep {
     /// every ball as one whole-field call. Attraction couples them: one whole-field integration,
     /// then the per-ball work in chunks.
     fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>) -> f64 {
-        let elastic = self.elastic();
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
@@ -652,9 +670,9 @@ impl Lockstep {
         let Bodies { position, velocity, mass, inverse_mass, diameter, radius, .. } = &mut self.bodies;
         let (mass, inverse_mass, diameter, radius) = (&mass[..], &inverse_mass[..], &diameter[..], &radius[..]);
         let field = &self.field;
-        // Only the inelastic contact solver takes the walls as contacts (the elastic passes meet
-        // the walls of the balls they strike, which they know themselves).
-        let collisions = self.effects.collisions.is_some() && !elastic;
+        // The contact solver takes the walls as contacts, and the elastic passes' resting phase
+        // the walls balls rest on: both look at the balls near a wall.
+        let collisions = self.effects.collisions.is_some();
         let step = local.then_some(LocalStep {
             method,
             dt,

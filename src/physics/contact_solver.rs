@@ -441,6 +441,27 @@ pub fn wall_contact(
     }
 }
 
+/// Whether a wall contact rests rather than strikes: its ball touched the wall at the start of
+/// the span, is pressed into it at the end, and approaches it at the contact's instant slower
+/// than `impact_threshold` (see [`Tolerances`]) — what the span's uniform acceleration added
+/// (`bias`) is the steady pressing of a resting ball, not an impact. `x`, `v`: the ball's
+/// position and velocity at the end of the span `span`, `acc` its uniform acceleration. The impact phase leaves such a contact
+/// to the resting phase by the same test of its approach at the instant; lockstep's elastic
+/// passes ask it of the walls.
+///
+/// "Touched at the start" is the gap `span` earlier along the ball's parabola, not `persistent`:
+/// a ball resting on the floor under leapfrog ends the span on a double root of the rewind, which
+/// rounding puts on either side of the span.
+#[inline]
+pub fn wall_contact_rests(c: &Contact, x: DVec2, v: DVec2, acc: DVec2, span: f64, impact_threshold: f64) -> bool {
+    debug_assert!(c.is_wall());
+    let into = v.dot(c.normal);
+    let alpha = acc.dot(c.normal);
+    let gap = c.plane - x.dot(c.normal) - c.reach;
+    let gap_at_start = gap + into * span - 0.5 * alpha * span * span;
+    c.tau != NEVER && gap_at_start <= TOUCH_MARGIN * c.reach && into > 0.0 && into - c.bias <= impact_threshold
+}
+
 /// Looks again at a wall contact that did not touch in free motion ([`NEVER`]) after an impact
 /// struck its ball: with the ball's state now (`x`, `v` at the span's end, its uniform
 /// acceleration `acc`), the rewind of [`wall_contact`] tells whether the struck ball meets the

@@ -75,7 +75,7 @@ pub struct ElasticWalls<'a> {
 }
 
 impl ElasticWalls<'_> {
-    fn acceleration(&self, i: usize) -> DVec2 {
+    pub(super) fn acceleration(&self, i: usize) -> DVec2 {
         if Some(i) == self.key { self.gravity + self.key_acceleration } else { self.gravity }
     }
 }
@@ -124,6 +124,16 @@ impl ElasticContacts {
     /// Touching pairs found by the last [`ElasticContacts::find_pairs`].
     pub fn pair_count(&self) -> usize {
         self.band_pairs.iter().chain(&self.seam_pairs).map(Vec::len).sum::<usize>() + self.big_pairs.len()
+    }
+
+    /// Calls `f(i, j)` with the balls of every pair found by the last
+    /// [`ElasticContacts::find_pairs`], in the passes' order (bands, seams, big balls).
+    pub fn for_each_pair(&self, grid: &BroadPhase, f: &mut dyn FnMut(usize, usize)) {
+        let slots = grid.slots();
+        let lists = self.band_pairs.iter().chain(&self.seam_pairs).chain(std::iter::once(&self.big_pairs));
+        for &(k, m) in lists.flatten() {
+            f(slots[k as usize] as usize, slots[m as usize] as usize);
+        }
     }
 
     /// Collects the touching pairs of the grid's last update, band by band (in parallel when
