@@ -148,6 +148,10 @@ pub struct Lockstep {
     pairs_elastic: bool,
     /// The balls near a wall this sub-step (see [`Lockstep::integrate_phase`]).
     near_walls: Vec<u32>,
+    /// The balls the last finish pass left touching a wall (perfectly elastic fields only), and
+    /// whether that list holds for the balls there are now (not after a ball came or went).
+    on_walls: Vec<u32>,
+    on_walls_known: bool,
     /// Positions at the last grid build, and whether the pairs must be found afresh regardless
     /// (balls added or removed, collisions turned on).
     built_positions: Vec<DVec2>,
@@ -213,6 +217,8 @@ impl Lockstep {
             elastic_resting: ElasticResting::default(),
             pairs_elastic: false,
             near_walls: Vec::new(),
+            on_walls: Vec::new(),
+            on_walls_known: false,
             adaptive_substeps: true,
             split_speeds: None,
             drag_c: None,
@@ -289,6 +295,7 @@ impl Lockstep {
     /// removed, or the effects changed.
     fn forget_derived(&mut self) {
         self.grid_stale = true;
+        self.on_walls_known = false;
         self.split_speeds = None;
         self.drag_c = None;
         self.forces.forget_orbit_rate();
@@ -585,8 +592,9 @@ impl Lockstep {
                 let largest = gravity.length().max((gravity + walls.key_acceleration).length());
                 let resting = self.elastic_resting.solve(
                     bodies,
-                    &self.near_walls,
-                    |f| elastic.for_each_pair(grid, f),
+                    self.on_walls_known.then_some(&self.on_walls[..]),
+                    elastic,
+                    grid,
                     &walls,
                     h,
                     resting_drift(self.integrator, 1),
@@ -598,7 +606,7 @@ impl Lockstep {
                 self.wall_impulses.add_all(&resting.walls);
                 self.counters.contacts += t2.elapsed();
                 let t3 = Instant::now();
-                self.finish_phase(pool);
+                self.finish_phase(h, pool);
                 self.counters.walls += t3.elapsed();
                 return;
             }
@@ -629,7 +637,7 @@ impl Lockstep {
             self.counters.contacts += t2.elapsed();
         }
         let t3 = Instant::now();
-        self.finish_phase(pool);
+        self.finish_phase(h, pool);
         self.counters.walls += t3.elapsed();
     }
 
@@ -644,6 +652,7 @@ impl Lockstep {
     /// every ball as one whole-field call. Attraction couples them: one whole-field integration,
     /// then the per-ball work in chunks.
     fn integrate_phase(&mut self, dt: f64, pool: Option<&rayon::ThreadPool>) -> f64 {
+        let elastic = self.elastic();
         let pull = match self.bodies.key_index() {
             Some(index) if self.pull != DVec2::ZERO => Some(PointForce { index, force: self.pull }),
             _ => None,
@@ -670,9 +679,10 @@ impl Lockstep {
         let Bodies { position, velocity, mass, inverse_mass, diameter, radius, .. } = &mut self.bodies;
         let (mass, inverse_mass, diameter, radius) = (&mass[..], &inverse_mass[..], &diameter[..], &radius[..]);
         let field = &self.field;
-        // The contact solver takes the walls as contacts, and the elastic passes' resting phase
-        // the walls balls rest on: both look at the balls near a wall.
-        let collisions = self.effects.collisions.is_some();
+        // Only the contact solver takes the walls as contacts here (the elastic passes meet the
+        // walls of the balls they strike, which they know themselves, and their resting phase
+        // the walls the finish pass left balls touching).
+        let collisions = self.effects.collisions.is_some() && !elastic;
         let step = local.then_some(LocalStep {
             method,
             dt,
@@ -719,7 +729,7 @@ impl Lockstep {
     /// already, so only a ball some push left past one is bounced here, its impulse on the
     /// gauge), and the speeds the next sub-step's split needs (kept for
     /// [`Lockstep::split_rates`]).
-    fn finish_phase(&mut self, pool: Option<&rayon::ThreadPool>) {
+    fn finish_phase(&mut self, h: f64, pool: Option<&rayon::ThreadPool>) {
         let elastic = self.elastic();
         let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
         let key = self.bodies.key_index();
@@ -727,7 +737,13 @@ impl Lockstep {
         let Bodies { position, velocity, radius, mass, inverse_mass, diameter, .. } = &mut self.bodies;
         let (radius, mass, inverse_mass, diameter) = (&radius[..], &mass[..], &inverse_mass[..], &diameter[..]);
         let slack = if collisions && !elastic { TOUCH_MARGIN } else { 0.0 };
-        let walls = WallPass { field: &self.field, slack, gravity, pull: self.pull, key, radius, mass, inverse_mass };
+        // A ball this close to a wall may have touched it at the start of the next sub-step, as
+        // its rewind along its parabola tells (see `physics::wall_contact_rests`): twice what the
+        // largest uniform acceleration moves a ball in a sub-step.
+        let largest = gravity.length().max(key.map_or(0.0, |k| (gravity + self.pull * inverse_mass[k]).length()));
+        let record = (collisions && elastic).then_some(2.0 * largest * h * h);
+        let walls =
+            WallPass { field: &self.field, slack, record, gravity, pull: self.pull, key, radius, mass, inverse_mass };
         let chunk = |c: usize, x: &mut [DVec2], v: &mut [DVec2], _: &mut IntegratorScratch| {
             // One loop per job over the chunk (it is in cache by then): each stays simple enough
             // for the compiler to vectorise, which one loop doing all of them is not.
@@ -759,6 +775,11 @@ impl Lockstep {
             self.counters.speed_limited += t.speed_limited;
         }
         self.split_speeds = Some(speeds);
+        self.on_walls.clear();
+        for t in &mut self.tallies {
+            self.on_walls.append(&mut t.on_walls);
+        }
+        self.on_walls_known = record.is_some();
         self.add_wall_tallies();
     }
 
@@ -914,6 +935,8 @@ struct ChunkTally {
     walls: WallImpulses,
     /// Balls near a wall (with collisions on; see [`Lockstep::integrate_phase`]).
     near_walls: Vec<u32>,
+    /// Balls left touching a wall (see [`WallPass`]'s `record`).
+    on_walls: Vec<u32>,
     wall_contacts: u64,
     speed_limited: u64,
     /// Largest squared distance a ball has moved since the pairs were last found.
@@ -929,6 +952,10 @@ struct WallPass<'a> {
     /// (bouncing a ball that rests exactly on the floor again would kick it with the wall's
     /// restitution).
     slack: f64,
+    /// Whether to list the balls it leaves touching a wall, and within what gap (m, besides the
+    /// touching margin): the next sub-step's resting phase of the elastic passes looks for
+    /// resting balls among them.
+    record: Option<f64>,
     gravity: DVec2,
     pull: DVec2,
     key: Option<usize>,
@@ -943,7 +970,13 @@ impl WallPass<'_> {
     fn bounce(&self, i: usize, x: &mut DVec2, v: &mut DVec2, tally: &mut ChunkTally) {
         // Strictly inside: `contact_ball_wall` would do nothing (most balls, most sub-steps).
         let r = self.radius[i];
-        if x.x > r && x.x < self.field.width - r && x.y > r && x.y < self.field.height - r {
+        if let Some(band) = self.record {
+            let near = r * (1.0 + TOUCH_MARGIN) + band;
+            if x.x > near && x.x < self.field.width - near && x.y > near && x.y < self.field.height - near {
+                return;
+            }
+            tally.on_walls.push(i as u32);
+        } else if x.x > r && x.x < self.field.width - r && x.y > r && x.y < self.field.height - r {
             return;
         }
         if self.slack > 0.0 {

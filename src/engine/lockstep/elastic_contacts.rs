@@ -118,12 +118,19 @@ pub struct ElasticContacts {
     unchanged: Vec<Vec<u32>>,
     /// Passes so far, over the solver's life.
     passes: u64,
+    /// Calls of [`ElasticContacts::find_pairs`] so far: the pair lists change only then.
+    generation: u64,
 }
 
 impl ElasticContacts {
     /// Touching pairs found by the last [`ElasticContacts::find_pairs`].
     pub fn pair_count(&self) -> usize {
         self.band_pairs.iter().chain(&self.seam_pairs).map(Vec::len).sum::<usize>() + self.big_pairs.len()
+    }
+
+    /// Which [`ElasticContacts::find_pairs`] the pair lists are from (they change only there).
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Calls `f(i, j)` with the balls of every pair found by the last
@@ -139,6 +146,7 @@ impl ElasticContacts {
     /// Collects the touching pairs of the grid's last update, band by band (in parallel when
     /// `parallel`; the lists are the same either way).
     pub fn find_pairs(&mut self, grid: &BroadPhase, parallel: bool) {
+        self.generation += 1;
         let bands = grid.band_count();
         self.band_pairs.resize_with(bands, Vec::new);
         self.seam_pairs.resize_with(bands.saturating_sub(1), Vec::new);
