@@ -137,7 +137,23 @@ fn check_hold(engine: &str, hold: &Hold, records: &[Record], shortest: f64, long
     }
     let (p0, p1) = (records.first().unwrap(), records.last().unwrap());
     let (k0, k1) = (p0.state.key(), p1.state.key());
-    assert_eq!((k0.position, k0.velocity), (START, DVec2::ZERO), "{engine} {:?}: not from rest", hold.keys);
+    if engine == "lockstep" {
+        assert_eq!((k0.position, k0.velocity), (START, DVec2::ZERO), "{engine} {:?}: not from rest", hold.keys);
+    } else {
+        // The record's key ball is the window's latest sample of the table, and on the threaded
+        // engine the ball thread may have run a cycle of the first pull before it was taken
+        // (seen once in twenty-odd runs: 34.99998 m, -0.02 m/s, one 1 ms cycle at 20 m/s²). So:
+        // at rest, or moving along the first pull only, by at most 10 cycles of it.
+        let first = expected_acceleration(&names[..1]).normalize();
+        let late = 10.0 * DT;
+        let (dx, dv) = (k0.position - START, k0.velocity);
+        let from_rest = dv.perp_dot(first).abs() <= 1e-12
+            && dv.dot(first) >= 0.0
+            && dv.length() <= ACCELERATION * late
+            && dx.perp_dot(first).abs() <= 1e-12
+            && dx.length() <= 0.5 * ACCELERATION * late * late;
+        assert!(from_rest, "{engine} {:?}: not from rest: {:?}, {:?}", hold.keys, k0.position, k0.velocity);
+    }
 
     // 1. The motion the test expects, integrated exactly over the engine times the window
     //    logged at each press and release (the lockstep engine's pull applies from the logged
