@@ -266,10 +266,12 @@ fn piles_of_unequal_balls_and_a_snug_box_settle() {
 /// The pile of 80 balls of 100 kg and 80 of 1 kg above, at e = 1 (walls 0.5): it stays hot (its
 /// balls keep their energy; only the walls take any), but light balls rattling in pockets between
 /// heavy ones and a wall must not be pressed into them. Watched every step from 10 to 12 s: the
-/// largest overlap stays within 3.5 % of a diameter. Measured: 2.85 %. Seen to fail with the
-/// resting phase's position passes left out: 47 %. (On the same scene, half-second samples of
-/// `lockstep_timeline` from 10 to 20 s: 10.5 % before the elastic passes had a resting phase, a
-/// light ball squeezed at a side wall; 25 % with the resting phase alone; 2.3-2.5 % now.)
+/// largest overlap stays within 1 % of a diameter, the issue's bound for lockstep. Measured:
+/// 0.72 %. Before the resting phase looked for balls the elastic passes push past a wall (out of
+/// a pair whose heavy ball takes a hundredth of the push), a light ball on the floor stayed 2.6 %
+/// into a heavy one (2.85 % was this test's figure, its bound 3.5 %); seen to fail that way again
+/// with those balls left out: 4.3 %. (Half-second samples of `lockstep_timeline` on the scene, 3
+/// to 20 s: 0.57-1.07 %; before, 2.3-2.5 % from 10 s and 28 % at 3 s.)
 #[test]
 fn an_elastic_pile_of_heavy_and_light_balls_keeps_its_overlaps_small() {
     let source = "name = \"masses e = 1\"\n[field]\nwidth = 20.0\nheight = 30.0\nrestitution = 0.5\n[simulation]\n\
@@ -286,5 +288,5 @@ fn an_elastic_pile_of_heavy_and_light_balls_keeps_its_overlaps_small() {
         overlap = overlap.max(engine.diagnostics().largest_overlap_ratio);
     }
     eprintln!("elastic masses pile: largest overlap {overlap:.5} of a diameter, 10-12 s");
-    assert!(overlap <= 0.035, "overlap {overlap} of a diameter");
+    assert!(overlap <= 0.01, "overlap {overlap} of a diameter");
 }

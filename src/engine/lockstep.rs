@@ -594,6 +594,7 @@ impl Lockstep {
                     bodies,
                     self.on_walls_known.then_some(&self.on_walls[..]),
                     elastic,
+                    outcome.overlaps_left,
                     grid,
                     &walls,
                     h,

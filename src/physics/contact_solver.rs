@@ -454,12 +454,25 @@ pub fn wall_contact(
 /// rounding puts on either side of the span.
 #[inline]
 pub fn wall_contact_rests(c: &Contact, x: DVec2, v: DVec2, acc: DVec2, span: f64, impact_threshold: f64) -> bool {
+    let into = v.dot(c.normal);
+    c.tau != NEVER
+        && wall_gap_at_start(c, x, v, acc, span) <= TOUCH_MARGIN * c.reach
+        && into > 0.0
+        && into - c.bias <= impact_threshold
+}
+
+/// A wall contact's gap (negative: past the wall) at the start of the span, rewound `span` along
+/// its ball's parabola from its position `x` and velocity `v` at the end (`acc` its uniform
+/// acceleration). A ball that strikes the wall in the span was inside the field then; one whose
+/// gap is negative even then was put past the wall by something other than its own motion (a
+/// contact's push), and a bounce replayed along its path cannot tell where it met the wall.
+#[inline]
+pub fn wall_gap_at_start(c: &Contact, x: DVec2, v: DVec2, acc: DVec2, span: f64) -> f64 {
     debug_assert!(c.is_wall());
     let into = v.dot(c.normal);
     let alpha = acc.dot(c.normal);
     let gap = c.plane - x.dot(c.normal) - c.reach;
-    let gap_at_start = gap + into * span - 0.5 * alpha * span * span;
-    c.tau != NEVER && gap_at_start <= TOUCH_MARGIN * c.reach && into > 0.0 && into - c.bias <= impact_threshold
+    gap + into * span - 0.5 * alpha * span * span
 }
 
 /// Looks again at a wall contact that did not touch in free motion ([`NEVER`]) after an impact

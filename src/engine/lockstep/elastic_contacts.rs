@@ -88,6 +88,10 @@ pub struct ElasticOutcome {
     /// Wall bounces inside the passes, and the impulses the walls took there.
     pub wall_bounces: u64,
     pub walls: WallImpulses,
+    /// Whether the passes stopped with pairs of their last pass still overlapping (their cap
+    /// reached): a jammed ball, such as a light one in a pocket between heavy ones and a wall,
+    /// that the resting phase's position passes must push out (see [`super::ElasticResting`]).
+    pub overlaps_left: bool,
 }
 
 /// The touching pairs (as slots) grouped for the solver, and the slot-ordered copy of the balls.
@@ -265,6 +269,7 @@ impl ElasticContacts {
                 |i| ball_slot[i] as usize,
             );
             outcome.impulses += pass.impulses;
+            outcome.overlaps_left = pass.active > 0;
             match next_pass(pass, bounced, iteration, iterations) {
                 Some(grouped) => group = grouped,
                 None => break,
@@ -379,6 +384,7 @@ impl ElasticContacts {
                 |s| s,
             );
             outcome.impulses += pass.impulses;
+            outcome.overlaps_left = pass.active > 0;
             match next_pass(pass, bounced, iteration, iterations) {
                 Some(grouped) => group = grouped,
                 None => break,
