@@ -560,20 +560,14 @@ impl Lockstep {
             self.broad_phase_phase(moved2, pool);
             let t2 = Instant::now();
             self.counters.broad_phase += t2 - t1;
+            let Uniform { gravity, key, key_acceleration, largest } = self.uniform();
             if self.elastic() {
                 let (bodies, grid, elastic) = (&mut self.bodies, &self.broad_phase, &mut self.elastic);
                 // Impacts struck at once are solved together above the settling ramp's top
                 // (`physics::settling`: full restitution from 40 impact thresholds, 20·g·h); a
                 // resting pile's contacts, approaching at about g·h, go one by one.
-                let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
                 let together = 20.0 * gravity.length() * h;
-                let key = bodies.key_index();
-                let walls = ElasticWalls {
-                    field: &self.field,
-                    gravity,
-                    key,
-                    key_acceleration: key.map_or(DVec2::ZERO, |k| self.pull * bodies.inverse_mass[k]),
-                };
+                let walls = ElasticWalls { field: &self.field, gravity, key, key_acceleration };
                 let outcome = in_pool(pool, || {
                     elastic.solve(
                         bodies,
@@ -589,7 +583,6 @@ impl Lockstep {
                 self.counters.impulses += outcome.impulses;
                 self.counters.wall_contacts += outcome.wall_bounces;
                 self.wall_impulses.add_all(&outcome.walls);
-                let largest = gravity.length().max((gravity + walls.key_acceleration).length());
                 let resting = self.elastic_resting.solve(
                     bodies,
                     self.on_walls_known.then_some(&self.on_walls[..]),
@@ -611,10 +604,6 @@ impl Lockstep {
                 self.counters.walls += t3.elapsed();
                 return;
             }
-            let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
-            let key = self.bodies.key_index();
-            let key_acceleration = key.map_or(DVec2::ZERO, |k| self.pull * self.bodies.inverse_mass[k]);
-            let largest = gravity.length().max((gravity + key_acceleration).length());
             let inputs = Inputs {
                 restitution: collisions.restitution,
                 field: &self.field,
@@ -733,15 +722,13 @@ impl Lockstep {
     fn finish_phase(&mut self, h: f64, pool: Option<&rayon::ThreadPool>) {
         let elastic = self.elastic();
         let (collisions, drag) = (self.effects.collisions.is_some(), self.effects.drag.as_ref());
-        let key = self.bodies.key_index();
-        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let Uniform { gravity, key, largest, .. } = self.uniform();
         let Bodies { position, velocity, radius, mass, inverse_mass, diameter, .. } = &mut self.bodies;
         let (radius, mass, inverse_mass, diameter) = (&radius[..], &mass[..], &inverse_mass[..], &diameter[..]);
         let slack = if collisions && !elastic { TOUCH_MARGIN } else { 0.0 };
         // A ball this close to a wall may have touched it at the start of the next sub-step, as
         // its rewind along its parabola tells (see `physics::wall_contact_rests`): twice what the
         // largest uniform acceleration moves a ball in a sub-step.
-        let largest = gravity.length().max(key.map_or(0.0, |k| (gravity + self.pull * inverse_mass[k]).length()));
         let record = (collisions && elastic).then_some(2.0 * largest * h * h);
         let walls =
             WallPass { field: &self.field, slack, record, gravity, pull: self.pull, key, radius, mass, inverse_mass };
@@ -839,6 +826,15 @@ impl Lockstep {
         self.counters.touching_pairs += pairs as u64;
     }
 
+    /// The uniform accelerations of a sub-step (see [`Uniform`]).
+    fn uniform(&self) -> Uniform {
+        let gravity = self.effects.gravity.map_or(DVec2::ZERO, |g| g.g);
+        let key = self.bodies.key_index();
+        let key_acceleration = key.map_or(DVec2::ZERO, |k| self.pull * self.bodies.inverse_mass[k]);
+        let largest = gravity.length().max((gravity + key_acceleration).length());
+        Uniform { gravity, key, key_acceleration, largest }
+    }
+
     /// Whether the contacts are perfectly elastic (ball restitution 1): they then go through
     /// [`ElasticContacts`], sequential elastic impulses that keep the energy to rounding however
     /// dense the field, and the walls through the finish pass; otherwise through the contact
@@ -886,6 +882,16 @@ pub fn state_hash(b: &Bodies) -> u64 {
         eat(b.diameter[i].to_bits());
     }
     h
+}
+
+/// The uniform accelerations of a sub-step: gravity, the key ball's index and its extra
+/// acceleration (the pull over its mass), and the largest of gravity and gravity plus the pull,
+/// which the contacts' tolerances and the finish pass's touching margin are measured by.
+struct Uniform {
+    gravity: DVec2,
+    key: Option<usize>,
+    key_acceleration: DVec2,
+    largest: f64,
 }
 
 /// The speeds a step's split is judged by (see `Lockstep::split_rates`): the largest

@@ -986,6 +986,44 @@ pub fn resting_end(list: &[Contact], x: &mut [DVec2], base: usize, span: f64, dr
     }
 }
 
+/// The resting phase's Gauss–Seidel iteration, for every solver that has one (the contact
+/// solver's packed rows, lockstep's banded lists, the resting phase of lockstep's elastic
+/// passes): `pass(backward)` runs one pass over the contacts, forward first and then alternating,
+/// and returns the largest change it made to a relative velocity. The passes stop after the
+/// first whose change is within `tolerance`, or after `cap`. Returns the passes run and whether
+/// the last was within the tolerance.
+pub fn iterate_resting(cap: u32, tolerance: f64, mut pass: impl FnMut(bool) -> f64) -> (u32, bool) {
+    let mut passes = 0;
+    loop {
+        let change = pass(passes % 2 == 1);
+        passes += 1;
+        if change <= tolerance {
+            return (passes, true);
+        }
+        if passes >= cap {
+            return (passes, false);
+        }
+    }
+}
+
+/// The position phase's iteration, for the same solvers: `pass()` runs one position pass and
+/// returns the largest overlap it found (relative to its contact's size, see [`position_pass`]).
+/// The passes stop after the first that found none beyond `tolerance`, or after `cap`. Returns
+/// the passes run and whether the last was within the tolerance.
+pub fn iterate_position(cap: u32, tolerance: f64, mut pass: impl FnMut() -> f64) -> (u32, bool) {
+    let mut passes = 0;
+    loop {
+        let overlap = pass();
+        passes += 1;
+        if overlap <= tolerance {
+            return (passes, true);
+        }
+        if passes >= cap {
+            return (passes, false);
+        }
+    }
+}
+
 /// One pass of the position phase over one list: every overlap beyond the slop (`slop` times the
 /// contact's `size`) is removed, split by inverse mass (a wall does not move), velocities
 /// untouched. Returns the largest overlap found, relative to its contact's `size`.
@@ -1650,17 +1688,11 @@ impl ContactSolver {
         in_waves(&mut self.rows, &mut self.order, n, &mut self.waves);
         self.velocity.push(DVec2::ZERO);
         let cap = resting_pass_cap(self.rows.len());
-        loop {
-            let change = resting_rows_pass(&mut self.rows, &mut self.velocity, tally.resting_passes % 2 == 1);
-            tally.resting_passes += 1;
-            if change <= tolerance.resting {
-                break;
-            }
-            if tally.resting_passes == cap {
-                tally.converged = false;
-                break;
-            }
-        }
+        let (rows, velocity) = (&mut self.rows, &mut self.velocity);
+        let (passes, converged) =
+            iterate_resting(cap, tolerance.resting, |backward| resting_rows_pass(rows, velocity, backward));
+        tally.resting_passes = passes;
+        tally.converged &= converged;
         self.velocity.pop();
         // Row k is the contact in the low bits of the k-th key (see `order_by_height`).
         for (r, &key) in self.rows.iter().zip(&self.order) {
@@ -1678,17 +1710,12 @@ impl ContactSolver {
     fn separate(&mut self, span: f64, drift: f64, tolerance: &Tolerances, tally: &mut SolveTally) {
         let list = &mut self.lists[0];
         resting_end(list, &mut self.position, 0, span, drift, &mut tally.walls);
-        loop {
-            let overlap = position_pass(list, &mut self.position, 0, &self.ids, tolerance.slop);
-            tally.position_passes += 1;
-            if overlap <= tolerance.overlap + tolerance.slop {
-                break;
-            }
-            if tally.position_passes == MAX_POSITION_PASSES {
-                tally.converged = false;
-                break;
-            }
-        }
+        let (position, ids) = (&mut self.position, &self.ids);
+        let (passes, converged) = iterate_position(MAX_POSITION_PASSES, tolerance.overlap + tolerance.slop, || {
+            position_pass(list, position, 0, ids, tolerance.slop)
+        });
+        tally.position_passes = passes;
+        tally.converged &= converged;
         wall_pass(list, &mut self.position, 0);
     }
 

@@ -35,9 +35,9 @@ use rayon::prelude::*;
 
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
-    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase, nearer_walls,
-    pair_contact, position_pass, redetect_wall, resting_begin, resting_end, resting_pass, resting_warm_start,
-    solve_resting_islands, wall_contact, wall_pass,
+    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase, iterate_position,
+    iterate_resting, nearer_walls, pair_contact, position_pass, redetect_wall, resting_begin, resting_end,
+    resting_pass, resting_warm_start, solve_resting_islands, wall_contact, wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
@@ -495,26 +495,21 @@ impl ContactSolver {
         });
         outcome.resting = self.lists.iter().flatten().filter(|c| c.active).count() as u64;
         if outcome.resting > 0 {
-            let mut passes: u32 = 0;
-            loop {
-                let backward = passes % 2 == 1;
-                let (change, _) = sweep_in(&mut self.lists, x, v, parts, backward, |list, _, v, base| {
+            let lists = &mut self.lists;
+            let (passes, converged) = iterate_resting(MAX_RESTING_PASSES, inputs.tolerances.resting, |backward| {
+                let (change, _) = sweep_in(lists, x, v, parts, backward, |list, _, v, base| {
                     (resting_pass(list, v, base, backward), WallImpulses::default())
                 });
-                passes += 1;
-                outcome.resting_passes = passes;
-                if change <= inputs.tolerances.resting {
-                    break;
-                }
-                if passes == MAX_RESTING_PASSES {
-                    outcome.converged = false;
-                    // Serial, over the whole arrays: each island's contacts in list order, the
-                    // same bits on any number of threads.
-                    let n = v.len();
-                    outcome.islands_solved =
-                        solve_resting_islands(&mut self.lists, v, n, inputs.tolerances.resting, &mut self.islands);
-                    break;
-                }
+                change
+            });
+            outcome.resting_passes = passes;
+            if !converged {
+                outcome.converged = false;
+                // Serial, over the whole arrays: each island's contacts in list order, the same
+                // bits on any number of threads.
+                let n = v.len();
+                outcome.islands_solved =
+                    solve_resting_islands(&mut self.lists, v, n, inputs.tolerances.resting, &mut self.islands);
             }
         }
         let (_, walls) = sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
@@ -523,21 +518,15 @@ impl ContactSolver {
             (0.0, walls)
         });
         outcome.walls = walls;
-        let mut passes = 0;
-        loop {
-            let (overlap, _) = sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
+        let lists = &mut self.lists;
+        let (passes, converged) = iterate_position(MAX_POSITION_PASSES, inputs.tolerances.overlap + slop, || {
+            let (overlap, _) = sweep(lists, x, v, parts, |list, x, _, base| {
                 (position_pass(list, x, base, &ids[base..], slop), WallImpulses::default())
             });
-            passes += 1;
-            outcome.position_passes = passes;
-            if overlap <= inputs.tolerances.overlap + slop {
-                break;
-            }
-            if passes == MAX_POSITION_PASSES {
-                outcome.converged = false;
-                break;
-            }
-        }
+            overlap
+        });
+        outcome.position_passes = passes;
+        outcome.converged &= converged;
         sweep(&mut self.lists, x, v, parts, |list, x, _, base| {
             wall_pass(list, x, base);
             (0.0, WallImpulses::default())

@@ -46,8 +46,8 @@ use glam::DVec2;
 use super::elastic_contacts::{ElasticContacts, ElasticWalls};
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, MAX_RESTING_PASSES, NEVER, RestingIslands, TOUCH_MARGIN, Tolerances, Wall,
-    WallImpulses, nearer_walls, pair_contact, position_pass, resting_begin, resting_end, resting_pass,
-    solve_resting_islands, wall_contact, wall_contact_rests, wall_gap_at_start, wall_pass,
+    WallImpulses, iterate_position, iterate_resting, nearer_walls, pair_contact, position_pass, resting_begin,
+    resting_end, resting_pass, solve_resting_islands, wall_contact, wall_contact_rests, wall_gap_at_start, wall_pass,
 };
 
 /// The position passes of the phase at most. A jam of a light ball between a heavy one and a wall
@@ -268,19 +268,13 @@ impl ElasticResting {
             c.active = false;
             c.impulse = 0.0;
         }
-        let mut passes = 0;
-        loop {
-            let change = resting_pass(list, velocity, 0, passes % 2 == 1);
-            passes += 1;
-            if change <= tolerances.resting {
-                break;
-            }
-            if passes == MAX_RESTING_PASSES {
-                outcome.converged = false;
-                outcome.islands_solved =
-                    solve_resting_islands(&mut self.lists, velocity, n, tolerances.resting, &mut self.islands);
-                break;
-            }
+        let (_, converged) = iterate_resting(MAX_RESTING_PASSES, tolerances.resting, |backward| {
+            resting_pass(list, velocity, 0, backward)
+        });
+        if !converged {
+            outcome.converged = false;
+            outcome.islands_solved =
+                solve_resting_islands(&mut self.lists, velocity, n, tolerances.resting, &mut self.islands);
         }
         resting_end(&self.lists[0], position, 0, h, drift, &mut outcome.walls);
         // The contact solver's position phase over the same contacts, walls immovable: overlaps
@@ -289,11 +283,9 @@ impl ElasticResting {
         // pressed into them: the e = 1 pile of 100 kg and 1 kg balls kept overlaps of 25 % at
         // 13-20 s; with it, 2.5 %.)
         let list = &self.lists[0];
-        for _ in 0..ELASTIC_POSITION_PASSES {
-            if position_pass(list, position, 0, id, tolerances.slop) <= tolerances.overlap + tolerances.slop {
-                break;
-            }
-        }
+        iterate_position(ELASTIC_POSITION_PASSES, tolerances.overlap + tolerances.slop, || {
+            position_pass(list, position, 0, id, tolerances.slop)
+        });
         wall_pass(list, position, 0);
         outcome
     }
