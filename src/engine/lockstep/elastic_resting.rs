@@ -271,10 +271,10 @@ impl ElasticResting {
         let (_, converged) = iterate_resting(MAX_RESTING_PASSES, tolerances.resting, |backward| {
             resting_pass(list, velocity, 0, backward)
         });
-        if !converged {
-            outcome.converged = false;
-            outcome.islands_solved =
-                solve_resting_islands(&mut self.lists, velocity, n, tolerances.resting, &mut self.islands);
+        outcome.converged = converged;
+        if !converged || super::contact_solver::small_rests(outcome.resting) {
+            let tolerance = if converged { 0.0 } else { tolerances.resting };
+            outcome.islands_solved = solve_resting_islands(&mut self.lists, velocity, n, tolerance, &mut self.islands);
         }
         resting_end(&self.lists[0], position, 0, h, drift, &mut outcome.walls);
         // The contact solver's position phase over the same contacts, walls immovable: overlaps
