@@ -445,9 +445,10 @@ pub fn wall_contact(
 /// the span, is pressed into it at the end, and approaches it at the contact's instant slower
 /// than `impact_threshold` (see [`Tolerances`]) — what the span's uniform acceleration added
 /// (`bias`) is the steady pressing of a resting ball, not an impact. `x`, `v`: the ball's
-/// position and velocity at the end of the span `span`, `acc` its uniform acceleration. The impact phase leaves such a contact
-/// to the resting phase by the same test of its approach at the instant; lockstep's elastic
-/// passes ask it of the walls.
+/// position and velocity at the end of the span `span`, `acc` its uniform acceleration.
+/// Lockstep's elastic passes ask it of the walls. (The contact solver's impact phase judges its
+/// rows by their approach at the instant against the same threshold, in its own test, and
+/// leaves what is slower to the resting phase.)
 ///
 /// "Touched at the start" is the gap `span` earlier along the ball's parabola, not `persistent`:
 /// a ball resting on the floor under leapfrog ends the span on a double root of the rewind, which
