@@ -53,10 +53,12 @@ use crate::physics::{
 /// The position passes of the phase at most. A jam of a light ball between a heavy one and a wall
 /// comes out by about a hundredth of the overlap a pass (the heavy ball takes a hundredth of a
 /// pair's push) and the next step's passes close it again, so the passes go on from where the
-/// last step left them. Measured on the hot e = 1 pile of 100 kg and 1 kg balls, 10-12 s: with
-/// up to 1,000 passes (the contact solver's cap) 620 a step on average, 0.72 ms a step, overlaps
-/// within 0.76 % of a diameter; with 64, 0.36 ms a step, 0.72 %; with 16, 1.3 %.
-const ELASTIC_POSITION_PASSES: u32 = 64;
+/// last step left them. Measured on the hot e = 1 pile of 100 kg and 1 kg balls, worst overlap
+/// every step from 10 to 12 s: with up to 1,000 passes (the contact solver's cap) 0.755 % of a
+/// diameter and 620 passes a step on average; with 256, 0.755 % (0.53–1.02 % in half-second
+/// samples from 2.5 to 20 s, 0.30 ms a step); with 64, 0.72 % in one build and 1.10 % in
+/// another that only moved its chaos (0.36 ms a step); with 16, 1.3 %.
+const ELASTIC_POSITION_PASSES: u32 = 256;
 
 /// What one sub-step's resting phase did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
