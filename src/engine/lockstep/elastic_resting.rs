@@ -80,7 +80,8 @@ pub struct ElasticResting {
     lists: Vec<Vec<Contact>>,
     /// The wall contacts balls rest on.
     walls: Vec<Contact>,
-    /// The balls of pairs the elastic passes left overlapping beyond the slop.
+    /// The balls the elastic passes left jammed: pushed past a wall, or in pairs left
+    /// overlapping beyond the slop.
     jammed: Vec<u32>,
     /// Each ball's candidate partners (`next[start[i]..start[i + 1]]`), from the elastic pair
     /// lists of generation `built` (rebuilt when the lists are: every few dozen steps).
@@ -257,8 +258,9 @@ impl ElasticResting {
                 if v.dot(c.normal) - c.bias <= tolerances.impact {
                     list.push(c);
                 } else if wall_gap_at_start(&c, x, v, acc, h) < -tolerances.slop * c.size {
-                    // Pressed into the wall since the start of the step and striking it: the
-                    // finish pass's bounce, and the position phase's wall.
+                    // Past the wall since the start of the step (pushed there) and moving into
+                    // it: a wall for the position phase alone; its bounce stays the finish
+                    // pass's.
                     list.push(Contact { key: 1, ..c });
                 }
             }
