@@ -1012,17 +1012,7 @@ pub fn iterate_resting(cap: u32, tolerance: f64, mut pass: impl FnMut(bool) -> f
 /// The passes stop after the first that found none beyond `tolerance`, or after `cap`. Returns
 /// the passes run and whether the last was within the tolerance.
 pub fn iterate_position(cap: u32, tolerance: f64, mut pass: impl FnMut() -> f64) -> (u32, bool) {
-    let mut passes = 0;
-    loop {
-        let overlap = pass();
-        passes += 1;
-        if overlap <= tolerance {
-            return (passes, true);
-        }
-        if passes >= cap {
-            return (passes, false);
-        }
-    }
+    iterate_resting(cap, tolerance, |_| pass())
 }
 
 /// One pass of the position phase over one list: every overlap beyond the slop (`slop` times the

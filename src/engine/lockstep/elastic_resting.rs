@@ -144,7 +144,7 @@ impl ElasticResting {
                 let c = wall_contact((i as u32, x, v, acc, inverse_mass[i], radius[i]), wall, field, h);
                 if wall_contact_rests(&c, x, v, acc, h, tolerances.impact) {
                     self.walls.push(c);
-                } else if c.tau != NEVER && wall_gap_at_start(&c, x, v, acc, h) < -tolerances.slop * c.size {
+                } else if c.tau != NEVER && pushed_past(&c, x, v, acc, h, tolerances) {
                     // Past the wall beyond the slop even at the start of the step along its
                     // path: the passes pushed it there, out of a pair (a light ball between a
                     // heavy one and the wall takes nearly all of the pair's push). The finish
@@ -257,7 +257,7 @@ impl ElasticResting {
                 }
                 if v.dot(c.normal) - c.bias <= tolerances.impact {
                     list.push(c);
-                } else if wall_gap_at_start(&c, x, v, acc, h) < -tolerances.slop * c.size {
+                } else if pushed_past(&c, x, v, acc, h, tolerances) {
                     // Past the wall since the start of the step (pushed there) and moving into
                     // it: a wall for the position phase alone; its bounce stays the finish
                     // pass's.
@@ -317,6 +317,12 @@ impl ElasticResting {
         self.start.truncate(n + 1);
         self.built = Some(pairs.generation());
     }
+}
+
+/// Whether a wall contact's ball is past its wall beyond the slop even at the start of the step
+/// along its own path: the passes pushed it there (see the module comment).
+fn pushed_past(c: &Contact, x: DVec2, v: DVec2, acc: DVec2, h: f64, tolerances: &Tolerances) -> bool {
+    wall_gap_at_start(c, x, v, acc, h) < -tolerances.slop * c.size
 }
 
 /// A pair apart (not touching over the step), for the position phase alone.
