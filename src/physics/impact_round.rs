@@ -73,32 +73,120 @@ impl RoundContact {
     }
 }
 
+/// Scratch of [`solve_simultaneous`], per ball of the velocities: kept by a caller that solves
+/// many rounds, to reuse the memory (sized on demand).
+#[derive(Clone, Debug, Default)]
+pub struct RoundScratch {
+    /// Contacts of the round on each ball (zero between rounds).
+    counts: Vec<u32>,
+    /// The round's groups: a union–find over the round's balls (valid for them alone).
+    parent: Vec<u32>,
+    /// Each contact's group in its high bits, its index in the low: sorted, the groups in turn.
+    keys: Vec<u64>,
+    /// One group's contacts while its sweeps run.
+    group: Vec<RoundContact>,
+}
+
+impl RoundScratch {
+    fn find(&mut self, mut i: u32) -> u32 {
+        while self.parent[i as usize] != i {
+            let grand = self.parent[self.parent[i as usize] as usize];
+            self.parent[i as usize] = grand;
+            i = grand;
+        }
+        i
+    }
+}
+
 /// Solves `contacts` together, changing the velocities `v` (indexed by the contacts' balls):
 /// each contact's impulse is `≥ 0` and brings its normal speed to at least its target, with
-/// complementarity. `counts` is scratch as long as `v`, all zero on entry and left so. The sweeps
-/// have converged when none changes a relative speed by more than `1e-14` of the largest
-/// approach plus `slack`; returns false if they reach [`MAX_ROUND_ITERATIONS`] first.
-pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts: &mut [u32], slack: f64) -> bool {
+/// complementarity. `s` is scratch (see [`RoundScratch`]).
+///
+/// The round falls into groups of contacts joined through shared balls, and no impulse of one
+/// group reaches another: each group's sweeps run on their own, until none of its contacts
+/// changes a relative speed by more than `1e-14` of the group's largest approach plus `slack`.
+/// A group's answer so does not depend on what else strikes in the same round (a pile struck
+/// in ten places at once is ten rounds' work, not ten times the slowest place's sweeps over
+/// all of them: on the landing 1,024-ball pile, rounds of 70 contacts took 40 sweeps each where
+/// most of their groups need one). Returns false if a group's sweeps reach
+/// [`MAX_ROUND_ITERATIONS`] first.
+pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], s: &mut RoundScratch, slack: f64) -> bool {
+    if s.counts.len() < v.len() {
+        s.counts.resize(v.len(), 0);
+        s.parent.resize(v.len(), 0);
+    }
     let mut shared = false;
-    let mut scale = 0.0f64;
     for c in contacts.iter() {
         for i in std::iter::once(c.a).chain(c.b) {
-            counts[i] += 1;
-            shared |= counts[i] > 1;
+            s.counts[i] += 1;
+            shared |= s.counts[i] > 1;
+            s.parent[i] = i as u32;
         }
-        scale = scale.max(-c.normal_speed(v));
     }
+    let converged = if shared { solve_groups(contacts, v, s, slack) } else { sweeps(contacts, v, &s.counts, slack) };
+    for c in contacts.iter() {
+        for i in std::iter::once(c.a).chain(c.b) {
+            s.counts[i] = 0;
+        }
+    }
+    converged
+}
+
+/// [`solve_simultaneous`]'s groups, each by its own sweeps, the contacts' order kept within
+/// each (so a group's velocities take their changes in the order they would in one sweep of
+/// the whole round, to the bit).
+fn solve_groups(contacts: &mut [RoundContact], v: &mut [DVec2], s: &mut RoundScratch, slack: f64) -> bool {
+    for c in contacts.iter() {
+        if let Some(b) = c.b {
+            let (ra, rb) = (s.find(c.a as u32), s.find(b as u32));
+            // The larger root joins the smaller: the same groups whatever the contacts' order.
+            let (low, high) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+            s.parent[high as usize] = low;
+        }
+    }
+    s.keys.clear();
+    for (k, c) in contacts.iter().enumerate() {
+        let root = s.find(c.a as u32);
+        s.keys.push((u64::from(root) << 32) | k as u64);
+    }
+    s.keys.sort_unstable();
+    let root = |key: u64| key >> 32;
+    if root(s.keys[0]) == root(s.keys[s.keys.len() - 1]) {
+        return sweeps(contacts, v, &s.counts, slack);
+    }
+    let mut converged = true;
+    let mut start = 0;
+    while start < s.keys.len() {
+        let group_root = root(s.keys[start]);
+        let end = start + s.keys[start..].iter().take_while(|&&key| root(key) == group_root).count();
+        s.group.clear();
+        s.group.extend(s.keys[start..end].iter().map(|&key| contacts[key as u32 as usize]));
+        converged &= sweeps(&mut s.group, v, &s.counts, slack);
+        for (&key, c) in s.keys[start..end].iter().zip(&s.group) {
+            contacts[key as u32 as usize] = *c;
+        }
+        start = end;
+    }
+    converged
+}
+
+/// The Jacobi sweeps over `contacts` (one group, or contacts that share no ball), `counts` each
+/// ball's contacts in the round.
+fn sweeps(contacts: &mut [RoundContact], v: &mut [DVec2], counts: &[u32], slack: f64) -> bool {
+    let mut shared = false;
+    let mut scale = 0.0f64;
     // The counts hold through the sweeps: each contact's split is found once, the same bits as
     // in every sweep, instead of from both balls' counts in each. (The monitor's solver on the
     // landing `pile`, 4.75–7.5 s, two runs each way alternating: 1.04 / 1.06 ms a solve against
     // 1.13 / 1.10 ms, every tally and energy the same.)
     for c in contacts.iter_mut() {
-        let ka = counts[c.a] as f64;
-        let kb = c.b.map_or(0.0, |b| counts[b] as f64);
-        c.split = ka * c.inverse_mass_a + kb * c.inverse_mass_b;
+        let ka = counts[c.a];
+        let kb = c.b.map_or(0, |b| counts[b]);
+        shared |= ka > 1 || kb > 1;
+        c.split = f64::from(ka) * c.inverse_mass_a + f64::from(kb) * c.inverse_mass_b;
+        scale = scale.max(-c.normal_speed(v));
     }
     let tolerance = 1e-14 * scale + slack;
-    let mut converged = false;
     for _ in 0..MAX_ROUND_ITERATIONS {
         let mut largest = 0.0f64;
         for c in contacts.iter_mut() {
@@ -121,16 +209,10 @@ pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], counts
         }
         // Without shared balls one sweep is the exact answer.
         if !shared || largest <= tolerance {
-            converged = true;
-            break;
+            return true;
         }
     }
-    for c in contacts.iter() {
-        for i in std::iter::once(c.a).chain(c.b) {
-            counts[i] = 0;
-        }
-    }
-    converged
+    false
 }
 
 #[cfg(test)]
@@ -149,8 +231,8 @@ mod tests {
         let mut v = vec![DVec2::new(5.0, 0.0), DVec2::ZERO, DVec2::ZERO];
         let (n1, n2) = (DVec2::new(0.75f64.sqrt(), 0.5), DVec2::new(0.75f64.sqrt(), -0.5));
         let mut cs = [contact(0, Some(1), n1, n1.dot(v[0])), contact(0, Some(2), n2, n2.dot(v[0]))];
-        let mut counts = vec![0; v.len()];
-        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts, 0.0));
+        let mut scratch = RoundScratch::default();
+        assert!(solve_simultaneous(&mut cs, &mut v, &mut scratch, 0.0));
         assert!((v[1].x - v[2].x).abs() < 1e-14 && (v[1].y + v[2].y).abs() < 1e-14, "{v:?}");
         assert_eq!(v[0].y, 0.0);
         let energy: f64 = v.iter().map(|u| u.length_squared()).sum();
@@ -165,8 +247,8 @@ mod tests {
     fn separate_contacts_are_binary_collisions() {
         let mut v = vec![DVec2::new(2.0, 0.0), DVec2::ZERO, DVec2::new(0.0, -1.0)];
         let mut cs = [contact(0, Some(1), DVec2::X, 0.5 * 2.0), contact(2, None, DVec2::NEG_Y, 0.5)];
-        let mut counts = vec![0; v.len()];
-        assert!(solve_simultaneous(&mut cs, &mut v, &mut counts, 0.0));
+        let mut scratch = RoundScratch::default();
+        assert!(solve_simultaneous(&mut cs, &mut v, &mut scratch, 0.0));
         // Equal masses at e = 0.5: a keeps 0.5 m/s, b takes 1.5 m/s; the wall returns 0.5 m/s.
         assert_eq!((v[0].x, v[1].x, v[2].y), (0.5, 1.5, 0.5));
     }

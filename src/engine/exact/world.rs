@@ -97,8 +97,9 @@ use serde::Serialize;
 use super::calendar::{Calendar, CalendarStats, Event, Partner};
 use super::cells::Cells;
 use crate::physics::{
-    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, RoundContact, WallImpulses, closing_slack,
-    coincident_normal, collide, cone_contains, flight, pair_time, plane_time, soft_restitution, solve_simultaneous,
+    Ball, BallId, BallKind, Collision, Effects, Field, Mobility, RoundContact, RoundScratch, WallImpulses,
+    closing_slack, coincident_normal, collide, cone_contains, flight, pair_time, plane_time, soft_restitution,
+    solve_simultaneous,
 };
 
 /// The walls' inward normals, in the order of [`Partner::Wall`]: left, right, bottom, top.
@@ -1730,7 +1731,7 @@ impl World {
                 }
             })
             .collect();
-        let mut counts = vec![0; members.len()];
+        let mut counts = RoundScratch::default();
         solve_simultaneous(&mut round, &mut v, &mut counts, 0.0);
         self.counters.collisions += round.iter().filter(|c| c.impulse > 0.0).count() as u64;
         // Every velocity first: settling one member can put others to rest with it (a group at
@@ -1811,7 +1812,7 @@ impl World {
         let mut v: Vec<DVec2> = members.iter().map(|&m| self.hot[m].v).collect();
         let mut total = vec![0.0; contacts.len()];
         let (mut round, mut these) = (Vec::new(), Vec::new());
-        let mut counts = vec![0u32; members.len()];
+        let mut counts = RoundScratch::default();
         // A contact closing by less than a few roundings of the speeds is not struck again.
         let slack = 4.0 * f64::EPSILON * v.iter().map(|u| u.length()).fold(0.0, f64::max);
         let (mut struck, mut bounced) = (0u64, 0u64);

@@ -34,10 +34,10 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::physics::{
-    BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_ISLAND_CONTACTS, MAX_POSITION_PASSES,
-    MAX_REDETECTIONS, MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase,
-    iterate_position, iterate_resting, nearer_walls, pair_contact, position_pass, redetect_wall, resting_begin,
-    resting_end, resting_pass, resting_warm_start, solve_resting_islands, wall_contact, wall_pass,
+    BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
+    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase, iterate_position,
+    iterate_resting, nearer_walls, pair_contact, position_pass, redetect_wall, resting_begin, resting_end,
+    resting_pass, resting_warm_start, small_rests, solve_resting_islands, wall_contact, wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
@@ -468,12 +468,12 @@ impl ContactSolver {
         for list in &self.lists {
             outcome.wall_contacts += list.iter().filter(|c| c.b == WALL && c.tau >= 0.0).count() as u64;
         }
-        let mut impacts = impact_phase(&mut self.lists, x, v, inputs.tolerances.impact, true, &mut self.impact);
+        let mut impacts = impact_phase(&mut self.lists, x, v, &inputs.tolerances, true, &mut self.impact);
         for _ in 0..MAX_REDETECTIONS {
             if self.redetect(x, v, fixed, inputs, index) == 0 {
                 break;
             }
-            let more = impact_phase(&mut self.lists, x, v, inputs.tolerances.impact, false, &mut self.impact);
+            let more = impact_phase(&mut self.lists, x, v, &inputs.tolerances, false, &mut self.impact);
             impacts.rounds += more.rounds;
             impacts.converged &= more.converged;
         }
@@ -508,8 +508,7 @@ impl ContactSolver {
             // when a few contacts rest in all, every island exactly (see `small_rests`).
             // Serial, over the whole arrays: each island's contacts in list order, the same bits
             // on any number of threads.
-            let weighed = inputs.gravity != DVec2::ZERO || inputs.key_acceleration != DVec2::ZERO;
-            if !converged || small_rests(outcome.resting, weighed) {
+            if !converged || small_rests(outcome.resting, inputs.tolerances.weighed) {
                 let tolerance = if converged { 0.0 } else { inputs.tolerances.resting };
                 let n = v.len();
                 outcome.islands_solved = solve_resting_islands(&mut self.lists, v, n, tolerance, &mut self.islands);
@@ -536,23 +535,6 @@ impl ContactSolver {
         });
         outcome
     }
-}
-
-/// Whether a sub-step's resting contacts are few enough (`active`, at most
-/// [`MAX_ISLAND_CONTACTS`]) that every island of them is solved exactly after the passes, not
-/// only where the passes reach their cap. The passes, converged to their tolerance (a thousandth
-/// of g·h a pass), still depend on the order they take the contacts in: a pyramid of three balls
-/// released on a frictionless floor came out of lockstep with its bottom balls at −1.2013297 and
-/// 1.2013300 m/s after 1.5 s, the ties of its contacts' heights broken by index. Solved exactly,
-/// a few balls come out mirror images to rounding. A pile is one island too big for it; its
-/// passes are as before.
-///
-/// Only under a uniform acceleration (`weighed`): without one no contact carries weight, and the
-/// resting targets only close overlaps of a rounding, which the exact solve turns into balls
-/// parting at 1e-12 m/s (a row of touching balls struck plastically from both ends, no gravity:
-/// 1.75e-12 m/s where the rounds have them at rest to 3e-15).
-pub(super) fn small_rests(active: u64, weighed: bool) -> bool {
-    weighed && active <= MAX_ISLAND_CONTACTS as u64
 }
 
 /// The slot runs of the bands and seams (empty: work serially in place).

@@ -37,7 +37,7 @@ use rayon::prelude::*;
 use super::PARALLEL_MIN_PAIRS;
 use super::contact_solver::{Fixed, SlotBodies, split_runs};
 use crate::physics::{
-    BallBallTouch, Bodies, BroadPhase, ContactBody, Field, RoundContact, SAME_INSTANT, WallImpulses,
+    BallBallTouch, Bodies, BroadPhase, ContactBody, Field, RoundContact, RoundScratch, SAME_INSTANT, WallImpulses,
     contact_ball_ball_or_touching, contact_ball_wall, out_of_reach, solve_simultaneous,
 };
 
@@ -938,7 +938,7 @@ fn strike_together(
         *t = 0.0;
     }
     let mut velocity: Vec<DVec2> = balls.iter().map(|&(s, _, _)| v[s]).collect();
-    let mut counts = vec![0; balls.len()];
+    let mut counts = RoundScratch::default();
     if !solve_simultaneous(&mut round, &mut velocity, &mut counts, 0.0) {
         return None;
     }

@@ -277,7 +277,7 @@ impl ElasticResting {
         });
         outcome.converged = converged;
         let weighed = walls.gravity != DVec2::ZERO || walls.key_acceleration != DVec2::ZERO;
-        if !converged || super::contact_solver::small_rests(outcome.resting, weighed) {
+        if !converged || crate::physics::small_rests(outcome.resting, weighed) {
             let tolerance = if converged { 0.0 } else { tolerances.resting };
             outcome.islands_solved = solve_resting_islands(&mut self.lists, velocity, n, tolerance, &mut self.islands);
         }
