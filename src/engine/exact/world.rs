@@ -1731,7 +1731,7 @@ impl World {
                 }
             })
             .collect();
-        let mut counts = RoundScratch::default();
+        let mut counts = RoundScratch::whole_rounds();
         solve_simultaneous(&mut round, &mut v, &mut counts, 0.0);
         self.counters.collisions += round.iter().filter(|c| c.impulse > 0.0).count() as u64;
         // Every velocity first: settling one member can put others to rest with it (a group at
@@ -1812,7 +1812,7 @@ impl World {
         let mut v: Vec<DVec2> = members.iter().map(|&m| self.hot[m].v).collect();
         let mut total = vec![0.0; contacts.len()];
         let (mut round, mut these) = (Vec::new(), Vec::new());
-        let mut counts = RoundScratch::default();
+        let mut counts = RoundScratch::whole_rounds();
         // A contact closing by less than a few roundings of the speeds is not struck again.
         let slack = 4.0 * f64::EPSILON * v.iter().map(|u| u.length()).fold(0.0, f64::max);
         let (mut struck, mut bounced) = (0u64, 0u64);
