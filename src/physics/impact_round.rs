@@ -139,8 +139,7 @@ pub fn solve_simultaneous(contacts: &mut [RoundContact], v: &mut [DVec2], s: &mu
     }
     // One tolerance for the whole round: a group's own approach can be far below the rounding of
     // its balls' velocities (a group closing at 1e-9 m/s among balls at 1 m/s), and a tolerance
-    // scaled to it alone is never met (the exact engine's settling pile then ran its rounds to
-    // their cap, again and again).
+    // scaled to it alone could never be met.
     let tolerance = 1e-14 * scale + slack;
     let converged = if shared && !s.whole {
         solve_groups(contacts, v, s, tolerance)
