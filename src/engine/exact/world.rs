@@ -33,13 +33,13 @@
 //! - a ball at rest stays so until it is pushed where its supports cannot hold it (an impulse
 //!   outside the cone wakes it; inside, the pile is immovable and passes the impulse on to the
 //!   walls), or a support of it wakes (balls resting on it are checked again, recursively); but a
-//!   ball at rest on walls alone, touching no other ball at rest, or only balls at rest that
-//!   themselves lie on walls (a row lying on the floor: walls take no impulse along it), struck
-//!   faster than the collapse speed, takes the impact, together with every other impact of that
-//!   instant and with those balls, as the chain of sequential impacts it starts with its walls
-//!   ([`World::strike_through_rest`]: a ball dropped on a ball lying on the floor rebounds as
-//!   that chain says; struck from both sides at once, it stays at rest) and wakes if it leaves
-//!   them faster than its rest speed;
+//!   ball at rest touching no other ball at rest, or only a few (a row lying on the floor, a
+//!   stack, a small heap: up to [`MAX_GROUP`] balls in the round), struck faster than the
+//!   collapse speed, takes the impact, together with every other impact of that instant and
+//!   with those balls, as the chain of sequential impacts it starts with their walls
+//!   ([`World::strike_through_rest`]: a ball dropped on a ball lying on the floor, or on a stack
+//!   of them, rebounds as that chain says; struck from both sides at once, it stays at rest)
+//!   and wakes if it leaves them faster than its rest speed;
 //! - a slow ball pressed against a ball that cannot hold it (on the slope of one ball) leaves at
 //!   the rebound speed `√(2·a·h)` instead of less: a hop of `h`, so that it slides off in events
 //!   no shorter than `2·√(2h/a)`.
@@ -1453,10 +1453,11 @@ impl World {
     /// of the round ([`World::strike_through_rest`]); a ball at rest is in the round only if
     /// every ball at rest it touches is in the round too: struck in it (a ball on walls alone,
     /// two balls lying side by side on the floor that a ball dropped between them strikes at
-    /// once), or joined to it because the balls at rest it touches through each other all lie on
-    /// walls ([`World::resting_row`]: a row on the floor, struck along it as a cradle). A ball of
-    /// a pile stays held immovable (the rest model): it is left out of the round and struck by
-    /// its own event at this instant, its pile passing the impulse on to the walls.
+    /// once), or joined to it with the balls at rest it touches through each other, when they
+    /// are few ([`World::resting_group`]: a row on the floor, struck along it as a cradle; a
+    /// stack, struck through to the floor). A ball of a bigger pile stays held immovable (the
+    /// rest model): it is left out of the round and struck by its own event at this instant,
+    /// its pile passing the impulse on to the walls.
     ///
     /// Returns false, and changes nothing, when i or j is a ball at rest left out, or when the
     /// round is the pair alone and neither is at rest (a binary collision, struck by
@@ -1504,26 +1505,33 @@ impl World {
             self.gather_round(&mut members, &mut pairs, &mut near, MAX_GROUP, |w, _, m, k| {
                 if left_out.contains(&k) || !w.touching(m, k) || !closing_fast(w, m, k) { Join::No } else { Join::Yes }
             });
-            // A ball at rest that touches a ball at rest outside the round: if the balls at rest
-            // it touches through each other all lie on walls (a row on the floor), they join the
-            // round; else it is in a pile, left out, and the round gathered again without it
-            // (the balls it alone joined to the round leave with it).
+            // A ball at rest that touches a ball at rest outside the round: the balls at rest it
+            // touches through each other join the round if they are few enough (a row on the
+            // floor, a stack, a small heap); else it is in a pile, left out, and the round
+            // gathered again without it. A ball joined with such a group leaves the round when
+            // it is left out in turn (the round grew past what its group may join), and a group
+            // with a ball left out does not join: each ball is left out once at most and joins
+            // at most once, so the gathering ends. (Left out again on each pass, a joined ball
+            // kept the loop going for ever: the round stayed the same and the list of balls
+            // left out grew.)
             let (before, joined_before) = (left_out.len(), joined.len());
             for &m in &members {
                 if !resting(self, m) || !self.touches_resting(m, |k| !members.contains(&k)) {
                     continue;
                 }
-                match self.resting_row(m, &members) {
-                    Some(row) => {
-                        for k in row {
+                match self.resting_group(m, &members, &left_out) {
+                    Some(group) => {
+                        for k in group {
                             if !joined.contains(&k) {
                                 joined.push(k);
                             }
                         }
                     }
-                    None => left_out.push(m),
+                    None if !left_out.contains(&m) => left_out.push(m),
+                    None => {}
                 }
             }
+            joined.retain(|k| !left_out.contains(k));
             if left_out.len() == before && joined.len() == joined_before {
                 break;
             }
@@ -1619,40 +1627,34 @@ impl World {
         true
     }
 
-    /// The balls at rest that ball `m` (at rest, on a wall) touches through each other, outside
-    /// `members`, if every one of them lies on a wall that holds it against its acceleration and
-    /// the round stays within [`MAX_GROUP`] balls: a row lying on the floor, or balls side by
-    /// side in a corner. Such balls are held by walls alone, which take no impulse along them, so
-    /// a ball struck into the row passes the impulse along it (a cradle lying on the floor).
-    /// `None` for a pile (a ball at rest on other balls), whose balls stay held immovable (the
-    /// rest model).
-    fn resting_row(&self, m: usize, members: &[usize]) -> Option<Vec<usize>> {
-        let on_a_wall = |k: usize| {
-            let (x, r, tol) = (self.hot[k].x, self.hot[k].r, 1e-6 * self.cold[k].diameter);
-            let a = self.free_accel(k);
-            (0..4).any(|w| WALL_NORMALS[w].dot(a) < 0.0 && self.wall_gap(w, x, r) <= tol)
-        };
-        if !on_a_wall(m) {
-            return None;
-        }
-        // The row from m (slot 0), its pairs not needed.
-        let mut row = vec![m];
-        let whole = self.gather_round(&mut row, &mut Vec::new(), &mut Vec::new(), usize::MAX, |w, row, s, k| {
-            if w.cold[k].motion != Motion::Resting || members.contains(&k) || row.contains(&k) || !w.touching(s, k) {
+    /// The balls at rest that ball `m` (at rest) touches through each other, outside `members`,
+    /// if none of them is `left_out` and the round stays within [`MAX_GROUP`] balls: a row lying
+    /// on the floor, a stack, a small heap. They join the round whole, and the impulse goes
+    /// through them to their walls as the chain of sequential impacts (a cradle lying on the
+    /// floor; a ball dropped on a stack of two on the floor at e = 1, floor 0.5, rebounds at
+    /// half its speed, where the stack held immovable sent it back at all of it). `None` for a
+    /// bigger pile, whose balls stay held immovable (the rest model), its walls taking the
+    /// impulse: struck through, a pile's balls are knocked into rattling in their pockets (see
+    /// [`World::strike_through_rest`]).
+    fn resting_group(&self, m: usize, members: &[usize], left_out: &[usize]) -> Option<Vec<usize>> {
+        // The group from m (slot 0), its pairs not needed.
+        let mut group = vec![m];
+        let whole = self.gather_round(&mut group, &mut Vec::new(), &mut Vec::new(), usize::MAX, |w, group, s, k| {
+            if w.cold[k].motion != Motion::Resting || members.contains(&k) || group.contains(&k) || !w.touching(s, k) {
                 Join::No
-            } else if !on_a_wall(k) || members.len() + row.len() > MAX_GROUP {
+            } else if left_out.contains(&k) || members.len() + group.len() > MAX_GROUP {
                 Join::Refuse
             } else {
                 Join::Yes
             }
         });
-        whole.then(|| row.split_off(1))
+        whole.then(|| group.split_off(1))
     }
 
     /// Gathers the balls of a round of simultaneous impacts from `members` (the two of a
     /// collision, slots 0 and 1) through their neighbours, for [`World::strike_simultaneous`]
-    /// and [`World::strike_free_cluster`], which differ only in which neighbours join (and a row
-    /// of balls at rest from one of them, for [`World::resting_row`]): each
+    /// and [`World::strike_free_cluster`], which differ only in which neighbours join (and a group
+    /// of balls at rest from one of them, for [`World::resting_group`]): each
     /// member in turn, while there are fewer than `limit`, asks `joins(world, members, m, k)` of
     /// every other ball k near it (m the member) whether k joins by the pair (m, k); k is then
     /// added to `members` and the pair to `pairs` (as slots in `members`, the lower first), each
@@ -1761,8 +1763,8 @@ impl World {
     /// wall if the round lifts it off; every impulse on a wall goes on its gauge.
     ///
     /// Only for balls at rest whose every neighbour at rest is in the round (see
-    /// [`World::strike_simultaneous`]: a row lying on walls joins it whole): a ball in a pile
-    /// stays held immovable, its pile passing
+    /// [`World::strike_simultaneous`]: a row, a stack or a small heap of balls at rest joins it
+    /// whole): a ball in a bigger pile stays held immovable, its pile passing
     /// the impulse on to the walls (the rest model). Struck through to its neighbours at rest
     /// (held immovable) and woken when it leaves them, the 150-ball pile of
     /// `tests/exact_pile.rs` had up to 8 times the events in its busiest half second (1.0–8.2
