@@ -1169,8 +1169,8 @@ fn pyramid_spread(top: f64, bottom: f64, d: f64) -> f64 {
 /// 1.3e-3 (relative) at e < 1 on lockstep and threaded, 2.1e-3 at e = 1 on lockstep (3 kg top);
 /// mirror images to 4.4e-16 m/s on lockstep at e < 1 and 5.1e-11 at e = 1 (its elastic passes
 /// take the pressing contacts one by one in list order), where its few resting contacts are
-/// solved exactly (`physics::small_rests`; before, 3.8e-7 and 2.7e-7, the resting passes taking
-/// the contacts in list order), and to 1.8e-15 on threaded, whose monitor solves them exactly
+/// solved exactly (`physics::islands_after_passes`; before, 3.8e-7 and 2.7e-7, the resting
+/// passes taking the contacts in list order), and to 1.8e-15 on threaded, whose monitor solves them exactly
 /// too (5.1e-7 before; 2.7e-6 with slow contacts of a resting cluster left to the passes alone);
 /// momentum to 2.3e-15 N·s. Held: the top ball sinks at most 2.8e-5 m and the bottom balls move
 /// at most 8.5e-3 m/s (lockstep, e = 1). Seen to fail: on the exact engine, whose free pyramid

@@ -62,7 +62,7 @@ use super::contact::coincident_normal;
 use super::field::{Field, Wall, WallImpulses};
 use super::impact_round::{RoundContact, RoundScratch, solve_simultaneous};
 use super::integrator::Integrator;
-use super::resting_island::{RestingIslands, small_rests, solve_resting_islands};
+use super::resting_island::{RestingIslands, islands_after_passes, solve_resting_islands};
 use super::step_policy::MAX_TRAVEL;
 
 /// Gap, relative to the contact distance, within which two balls (or a ball and a wall) still
@@ -1723,11 +1723,9 @@ impl ContactSolver {
         for (r, &key) in self.rows.iter().zip(&self.order) {
             list[key as u32 as usize].impulse = r.impulse;
         }
-        // Where the passes reached their cap, the islands they left off; when a few contacts rest
-        // in all, every island exactly, as lockstep does (see `small_rests`).
-        let at_cap = tally.resting_passes == cap;
-        if at_cap || small_rests(tally.resting, tolerance.weighed) {
-            let tolerance = if at_cap { tolerance.resting } else { 0.0 };
+        // The islands `islands_after_passes` says, as lockstep's solvers do.
+        let t = tolerance;
+        if let Some(tolerance) = islands_after_passes(converged, tally.resting, t.weighed, t.resting) {
             tally.islands_solved =
                 solve_resting_islands(&mut self.lists, &mut self.velocity, n, tolerance, &mut self.islands);
         }

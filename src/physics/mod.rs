@@ -59,7 +59,7 @@ pub use forces::{
 };
 pub use impact_round::{RoundContact, RoundScratch, solve_simultaneous};
 pub use integrator::{Integrator, IntegratorScratch, UnknownIntegrator, integrate};
-pub use resting_island::{MAX_ISLAND_CONTACTS, RestingIslands, small_rests, solve_resting_islands};
+pub use resting_island::{MAX_ISLAND_CONTACTS, RestingIslands, islands_after_passes, solve_resting_islands};
 pub use sleep::{Islands, TIME_TO_SLEEP, held_wall_forces, is_quiet, sleep_speed};
 pub use step_policy::{MAX_SPEED, MAX_SUBSTEPS, MAX_TRAVEL, SpanRates, StepPolicy, SubSteps, cap_speed};
 pub use sweep::swept_circle;

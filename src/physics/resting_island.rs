@@ -32,21 +32,32 @@ pub const MAX_ISLAND_CONTACTS: usize = 32;
 /// Pivots allowed per island contact before its pivoting is given up.
 const PIVOTS_PER_CONTACT: usize = 4;
 
-/// Whether a solve's resting contacts are few enough (`active`, at most
-/// [`MAX_ISLAND_CONTACTS`]) that every island of them is solved exactly after the passes, not
-/// only where the passes reach their cap. The passes, converged to their tolerance (a thousandth
-/// of g·h a pass), still depend on the order they take the contacts in: a pyramid of three balls
-/// released on a frictionless floor came out of lockstep (and of the threaded monitor) with its bottom balls at −1.2013297 and
-/// 1.2013300 m/s after 1.5 s, the ties of its contacts' heights broken by index. Solved exactly,
-/// a few balls come out mirror images to rounding. A pile is one island too big for it; its
-/// passes are as before.
-///
-/// Only under a uniform acceleration (`weighed`): without one no contact carries weight, and the
-/// resting targets only close overlaps of a rounding, which the exact solve turns into balls
-/// parting at 1e-12 m/s (a row of touching balls struck plastically from both ends, no gravity:
-/// 1.75e-12 m/s where the rounds have them at rest to 3e-15).
-pub fn small_rests(active: u64, weighed: bool) -> bool {
-    weighed && active <= MAX_ISLAND_CONTACTS as u64
+/// Whether, and to what tolerance, a solver solves the islands of its resting contacts directly
+/// after its resting passes ([`solve_resting_islands`]): `converged` whether the passes met
+/// their `tolerance` before their cap, `active` the resting contacts, `weighed` whether a uniform
+/// acceleration acts. Every solver (lockstep's contact solver, the resting phase of its elastic
+/// passes, the threaded monitor's solver) asks this, so they decide alike:
+/// - where the passes reached their cap, the islands they left off target, to `tolerance`;
+/// - when a few contacts rest in all (at most [`MAX_ISLAND_CONTACTS`]) under a uniform
+///   acceleration, every island exactly (tolerance 0). The passes, converged to their tolerance
+///   (a thousandth of g·h a pass), still depend on the order they take the contacts in: a pyramid
+///   of three balls released on a frictionless floor came out of lockstep (and of the threaded
+///   monitor) with its bottom balls at −1.2013297 and 1.2013300 m/s after 1.5 s, the ties of its
+///   contacts' heights broken by index. Solved exactly, a few balls come out mirror images to
+///   rounding. A pile is one island too big for it; its passes are as before. Not without a
+///   uniform acceleration: then no contact carries weight, and the resting targets only close
+///   overlaps of a rounding, which the exact solve turns into balls parting at 1e-12 m/s (a row
+///   of touching balls struck plastically from both ends, no gravity: 1.75e-12 m/s where the
+///   rounds have them at rest to 3e-15);
+/// - otherwise none (`None`).
+pub fn islands_after_passes(converged: bool, active: u64, weighed: bool, tolerance: f64) -> Option<f64> {
+    if !converged {
+        Some(tolerance)
+    } else if weighed && active <= MAX_ISLAND_CONTACTS as u64 {
+        Some(0.0)
+    } else {
+        None
+    }
 }
 
 /// Scratch of [`solve_resting_islands`], kept to reuse the memory.

@@ -35,9 +35,9 @@ use rayon::prelude::*;
 
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, Field, ImpactScratch, MAX_POSITION_PASSES, MAX_REDETECTIONS,
-    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase, iterate_position,
-    iterate_resting, nearer_walls, pair_contact, position_pass, redetect_wall, resting_begin, resting_end,
-    resting_pass, resting_warm_start, small_rests, solve_resting_islands, wall_contact, wall_pass,
+    MAX_RESTING_PASSES, NEVER, RESTED, RestingIslands, Tolerances, WALL, WallImpulses, impact_phase,
+    islands_after_passes, iterate_position, iterate_resting, nearer_walls, pair_contact, position_pass, redetect_wall,
+    resting_begin, resting_end, resting_pass, resting_warm_start, solve_resting_islands, wall_contact, wall_pass,
 };
 
 /// Fewest touching pairs for which the contact phase is worked in parallel (and at least half as
@@ -504,12 +504,10 @@ impl ContactSolver {
             });
             outcome.resting_passes = passes;
             outcome.converged &= converged;
-            // Where the passes reached their cap, the small islands they left off target; and
-            // when a few contacts rest in all, every island exactly (see `small_rests`).
-            // Serial, over the whole arrays: each island's contacts in list order, the same bits
-            // on any number of threads.
-            if !converged || small_rests(outcome.resting, inputs.tolerances.weighed) {
-                let tolerance = if converged { 0.0 } else { inputs.tolerances.resting };
+            // The islands `islands_after_passes` says. Serial, over the whole arrays: each
+            // island's contacts in list order, the same bits on any number of threads.
+            let t = &inputs.tolerances;
+            if let Some(tolerance) = islands_after_passes(converged, outcome.resting, t.weighed, t.resting) {
                 let n = v.len();
                 outcome.islands_solved = solve_resting_islands(&mut self.lists, v, n, tolerance, &mut self.islands);
             }

@@ -46,8 +46,9 @@ use glam::DVec2;
 use super::elastic_contacts::{ElasticContacts, ElasticWalls};
 use crate::physics::{
     BallId, Bodies, BroadPhase, Contact, MAX_RESTING_PASSES, NEVER, RestingIslands, TOUCH_MARGIN, Tolerances, Wall,
-    WallImpulses, iterate_position, iterate_resting, nearer_walls, pair_contact, position_pass, resting_begin,
-    resting_end, resting_pass, solve_resting_islands, wall_contact, wall_contact_rests, wall_gap_at_start, wall_pass,
+    WallImpulses, islands_after_passes, iterate_position, iterate_resting, nearer_walls, pair_contact, position_pass,
+    resting_begin, resting_end, resting_pass, solve_resting_islands, wall_contact, wall_contact_rests,
+    wall_gap_at_start, wall_pass,
 };
 
 /// The position passes of the phase at most. A jam of a light ball between a heavy one and a wall
@@ -276,9 +277,8 @@ impl ElasticResting {
             resting_pass(list, velocity, 0, backward)
         });
         outcome.converged = converged;
-        let weighed = walls.gravity != DVec2::ZERO || walls.key_acceleration != DVec2::ZERO;
-        if !converged || crate::physics::small_rests(outcome.resting, weighed) {
-            let tolerance = if converged { 0.0 } else { tolerances.resting };
+        let t = tolerances;
+        if let Some(tolerance) = islands_after_passes(converged, outcome.resting, t.weighed, t.resting) {
             outcome.islands_solved = solve_resting_islands(&mut self.lists, velocity, n, tolerance, &mut self.islands);
         }
         resting_end(&self.lists[0], position, 0, h, drift, &mut outcome.walls);
