@@ -33,8 +33,8 @@
 //! - a ball at rest stays so until it is pushed where its supports cannot hold it (an impulse
 //!   outside the cone wakes it; inside, the pile is immovable and passes the impulse on to the
 //!   walls), or a support of it wakes (balls resting on it are checked again, recursively); but a
-//!   ball at rest touching no other ball at rest, or only a few (a row lying on the floor, a
-//!   stack, a small heap: up to [`MAX_GROUP`] balls in the round), struck faster than the
+//!   ball at rest touching no other ball at rest, or only a row of them lying on walls (up to
+//!   [`MAX_GROUP`] balls in the round) or a stack (up to [`MAX_STACK`]), struck faster than the
 //!   collapse speed, takes the impact, together with every other impact of that instant and
 //!   with those balls, as the chain of sequential impacts it starts with their walls
 //!   ([`World::strike_through_rest`]: a ball dropped on a ball lying on the floor, or on a stack
@@ -131,6 +131,14 @@ const MAX_CLUSTER_SWEEPS: usize = 1_000;
 
 /// The most times [`World::resolve_cluster`] solves a cluster again after waking a support.
 const CLUSTER_PASSES: usize = 4;
+
+/// The most balls at rest, not all of them on walls, that join a round of simultaneous impacts
+/// as one group (a stack; see [`World::resting_group`]); a bigger group is a pile, held
+/// immovable. Groups of up to [`MAX_GROUP`] made the 150-ball pile of `tests/exact_pile.rs`
+/// grind at e = 0.95 (20 million events in a half second, stuck at 6.4 s simulated; seed 1):
+/// its balls, struck through, woke and rattled in their pockets. With at most 4, over the same
+/// seeds it runs as with rows alone (docs/accuracy/exact.md).
+const MAX_STACK: usize = 4;
 
 /// The most rounds of impacts of [`World::strike_through_rest`].
 const MAX_REST_STRIKE_ROUNDS: usize = 64;
@@ -1454,8 +1462,8 @@ impl World {
     /// every ball at rest it touches is in the round too: struck in it (a ball on walls alone,
     /// two balls lying side by side on the floor that a ball dropped between them strikes at
     /// once), or joined to it with the balls at rest it touches through each other, when they
-    /// are few ([`World::resting_group`]: a row on the floor, struck along it as a cradle; a
-    /// stack, struck through to the floor). A ball of a bigger pile stays held immovable (the
+    /// are a row or a stack ([`World::resting_group`]: a row on the floor, struck along it as a
+    /// cradle; a stack, struck through to the floor). A ball of a pile stays held immovable (the
     /// rest model): it is left out of the round and struck by its own event at this instant,
     /// its pile passing the impulse on to the walls.
     ///
@@ -1506,8 +1514,8 @@ impl World {
                 if left_out.contains(&k) || !w.touching(m, k) || !closing_fast(w, m, k) { Join::No } else { Join::Yes }
             });
             // A ball at rest that touches a ball at rest outside the round: the balls at rest it
-            // touches through each other join the round if they are few enough (a row on the
-            // floor, a stack, a small heap); else it is in a pile, left out, and the round
+            // touches through each other join the round if they are a row on walls or a stack;
+            // else it is in a pile, left out, and the round
             // gathered again without it. A ball joined with such a group leaves the round when
             // it is left out in turn (the round grew past what its group may join), and a group
             // with a ball left out does not join: each ball is left out once at most and joins
@@ -1628,15 +1636,21 @@ impl World {
     }
 
     /// The balls at rest that ball `m` (at rest) touches through each other, outside `members`,
-    /// if none of them is `left_out` and the round stays within [`MAX_GROUP`] balls: a row lying
-    /// on the floor, a stack, a small heap. They join the round whole, and the impulse goes
-    /// through them to their walls as the chain of sequential impacts (a cradle lying on the
-    /// floor; a ball dropped on a stack of two on the floor at e = 1, floor 0.5, rebounds at
-    /// half its speed, where the stack held immovable sent it back at all of it). `None` for a
-    /// bigger pile, whose balls stay held immovable (the rest model), its walls taking the
-    /// impulse: struck through, a pile's balls are knocked into rattling in their pockets (see
-    /// [`World::strike_through_rest`]).
+    /// if none of them is `left_out`, the round stays within [`MAX_GROUP`] balls, and they are
+    /// a row (every one lies on a wall that holds it against its acceleration: a row lying on the
+    /// floor, balls side by side in a corner) or a stack (at most [`MAX_STACK`] balls with
+    /// `m`). They join the round whole, and the impulse goes through them to their walls as the
+    /// chain of sequential impacts: a ball struck into a row passes the impulse along it (a
+    /// cradle lying on the floor); a ball dropped on a stack of two on the floor at e = 1, floor
+    /// 0.5, rebounds at half its speed, where the stack held immovable sent it back at all of it.
+    /// `None` for a pile (a bigger group with a ball at rest on other balls), whose balls stay
+    /// held immovable (the rest model), its walls taking the impulse.
     fn resting_group(&self, m: usize, members: &[usize], left_out: &[usize]) -> Option<Vec<usize>> {
+        let on_a_wall = |k: usize| {
+            let (x, r, tol) = (self.hot[k].x, self.hot[k].r, 1e-6 * self.cold[k].diameter);
+            let a = self.free_accel(k);
+            (0..4).any(|w| WALL_NORMALS[w].dot(a) < 0.0 && self.wall_gap(w, x, r) <= tol)
+        };
         // The group from m (slot 0), its pairs not needed.
         let mut group = vec![m];
         let whole = self.gather_round(&mut group, &mut Vec::new(), &mut Vec::new(), usize::MAX, |w, group, s, k| {
@@ -1648,7 +1662,8 @@ impl World {
                 Join::Yes
             }
         });
-        whole.then(|| group.split_off(1))
+        let row_or_stack = group.len() <= MAX_STACK || group.iter().all(|&k| on_a_wall(k));
+        (whole && row_or_stack).then(|| group.split_off(1))
     }
 
     /// Gathers the balls of a round of simultaneous impacts from `members` (the two of a
@@ -1763,8 +1778,8 @@ impl World {
     /// wall if the round lifts it off; every impulse on a wall goes on its gauge.
     ///
     /// Only for balls at rest whose every neighbour at rest is in the round (see
-    /// [`World::strike_simultaneous`]: a row, a stack or a small heap of balls at rest joins it
-    /// whole): a ball in a bigger pile stays held immovable, its pile passing
+    /// [`World::strike_simultaneous`]: a row or a stack of balls at rest joins it whole): a ball
+    /// in a pile stays held immovable, its pile passing
     /// the impulse on to the walls (the rest model). Struck through to its neighbours at rest
     /// (held immovable) and woken when it leaves them, the 150-ball pile of
     /// `tests/exact_pile.rs` had up to 8 times the events in its busiest half second (1.0–8.2
