@@ -181,6 +181,11 @@ impl Engine for ThreadedEngine {
 
     fn quiesce(&mut self) {
         self.step_until = None;
+        // The monitor judges the contacts up to the clock first, so the balls are not read
+        // before the instant the engine was run to (see `Runtime::catch_up`).
+        if !self.runtime.catch_up(Duration::from_secs(1)) {
+            log::warn!("the threaded engine's monitor did not catch up with its clock within 1 s");
+        }
         self.pause_now();
         // Every ball catches up to the monitor's horizon with every contact message applied, so
         // the balls are read at one instant: the horizon, which the monitor published before it

@@ -520,6 +520,21 @@ impl Runtime {
         })
     }
 
+    /// Waits (up to `timeout`) until the monitor's horizon is at or past the clock as it reads
+    /// now: every contact up to this instant judged. A monitor running late (a loaded machine)
+    /// leaves its horizon behind the clock, and a pause then stands the balls at that horizon,
+    /// before the instant the caller ran the runtime to: on a CI machine a ball dropped on
+    /// another was read 5 ms after the impact, still falling, its monitor more than 5 ms late.
+    /// Returns at once when paused (the horizon stands), and whether it caught up.
+    pub fn catch_up(&self, timeout: Duration) -> bool {
+        if self.is_paused() {
+            return true;
+        }
+        let target = self.shared.clock(Instant::now());
+        // Acquire: see `Shared::horizon` (only the value is read here).
+        wait_until(timeout, || self.shared.horizon.load(Ordering::Acquire) >= target)
+    }
+
     /// The runtime's clock now, s (see `Shared::clock`: wall time less what it dropped).
     pub fn clock_seconds(&self) -> f64 {
         self.shared.clock(Instant::now()) as f64 * 1e-9
