@@ -92,10 +92,12 @@ pub struct RoundScratch {
 impl RoundScratch {
     /// Scratch whose rounds are swept whole, every contact until the slowest group has converged
     /// (as every round was before 2026-12-06): the exact engine's. With its groups swept apart,
-    /// the exact engine's 150-ball pile (`tests/exact_pile.rs`, 15 s) did not settle within ten
-    /// minutes; why is not known yet (the groups' answers differ from the whole round's only
-    /// within the tolerance, 1e-14 of the largest approach, and its rest and collapse tests
-    /// may hinge on such a difference).
+    /// its 150-ball pile (`tests/exact_pile.rs`) grinds at high restitution: 2.3e7 events in a
+    /// half second at e = 0.9 (seed 2), and at seed 5 it stood at 3.8 s simulated after a minute
+    /// (docs/accuracy/exact.md). The groups' answers differ from the whole round's only within
+    /// the tolerance, 1e-14 of the largest approach, so its rest and collapse tests hinge on
+    /// differences that small. (The pile's hang when this was first tried was, at least in part,
+    /// a loop in the exact engine's gathering of a round, since mended.)
     pub fn whole_rounds() -> Self {
         RoundScratch { whole: true, ..Self::default() }
     }

@@ -1515,13 +1515,12 @@ impl World {
             });
             // A ball at rest that touches a ball at rest outside the round: the balls at rest it
             // touches through each other join the round if they are a row on walls or a stack;
-            // else it is in a pile, left out, and the round
-            // gathered again without it. A ball joined with such a group leaves the round when
-            // it is left out in turn (the round grew past what its group may join), and a group
-            // with a ball left out does not join: each ball is left out once at most and joins
-            // at most once, so the gathering ends. (Left out again on each pass, a joined ball
-            // kept the loop going for ever: the round stayed the same and the list of balls
-            // left out grew.)
+            // else it is in a pile, left out, and the round gathered again without it. A ball
+            // joined with such a group leaves the round when it is left out in turn (the round
+            // grew past what its group may join), and a group with a ball left out does not join:
+            // each ball is left out once at most and joins at most once, so the gathering ends.
+            // (Left out again on each pass, a joined ball kept the loop going for ever: the round
+            // stayed the same and the list of balls left out grew.)
             let (before, joined_before) = (left_out.len(), joined.len());
             for &m in &members {
                 if !resting(self, m) || !self.touches_resting(m, |k| !members.contains(&k)) {
