@@ -179,3 +179,85 @@ fn a_stalled_ball_in_a_stack_stays_where_the_stack_holds_it() {
     // to fail with the monitor's count of channel responses never incremented).
     assert!(stats.responses_by_channel > 0, "no response went by the channel: {stats:?}");
 }
+
+/// Stops this whole test process for `gap` (SIGSTOP from a shell it waits for, then SIGCONT):
+/// every thread of the runtime misses that much wall time, the monitor as a starved one would.
+/// Returns the wall time the stop lasted.
+#[cfg(target_os = "linux")]
+fn stall_this_process(gap: Duration) -> Duration {
+    let started = std::time::Instant::now();
+    let script = format!("kill -STOP {pid}; sleep {}; kill -CONT {pid}", gap.as_secs_f64(), pid = std::process::id());
+    assert!(Command::new("sh").args(["-c", &script]).status().unwrap().success());
+    started.elapsed()
+}
+
+/// A ball (0.2 kg, 1 m) dropped 1 m onto a ball of 1 kg resting on the floor, e = 0.8 for both
+/// and the walls, leapfrog; the whole process stalls about 10 ms (under `MAX_ADVANCE`, so
+/// nothing is dropped from the clock) 10 ms before the impact, when the monitor has judged up to
+/// about 6 ms before it. Its next pass comes late by the stall and judges the periods it missed
+/// one solve each, the impact's among them, and the dropped ball rebounds as the chain of
+/// sequential impacts says within lockstep's bound at dt = 1 ms, 1.2·g·dt (read off its energy 5
+/// ms after the impact, as `contacts_every_engine` does). A late pass judged in one solve is
+/// lockstep's step at the stall's length: on a 2-core CI machine running tests beside it, passes
+/// 2 to 5 ms apart put this rebound 0.037 m/s off (bound 0.034 then).
+///
+/// Measured: the rebound −7.7e-3 m/s off the chain (lockstep's figure at dt = 1 ms, to the
+/// bit), every span one period, stalls of 12.6 to 13.6 ms. Seen to fail with every late pass
+/// judged in one solve (`solves_are_cheap` false): the longest span 11 to 12 ms, the rebound
+/// 0.067 to 0.082 m/s low.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_late_monitor_judges_the_periods_it_missed_one_solve_each() {
+    use ballfield::engine::{self, EngineKind};
+    let _serial = serial();
+    const G: f64 = 9.81;
+    let (e, ma, mb, fall) = (0.8, 0.2, 1.0, 1.0);
+    let mut text = format!(
+        "name = \"late\"\n[field]\nwidth = 10.0\nheight = 20.0\nrestitution = {e:?}\n\
+         [simulation]\ndt = 0.001\nintegrator = \"leapfrog\"\n\
+         [effects]\ncollisions = {{ restitution = {e:?} }}\ngravity = {{ g = [0.0, {:?}] }}\n",
+        -G
+    );
+    for (y, m) in [(1.5 + fall, ma), (0.5, mb)] {
+        text += &format!("[[balls]]\nposition = [5.0, {y:?}]\nmass = {m:?}\ndiameter = 1.0\n");
+    }
+    let scene = Scene::from_toml_str(&text, &Origin("late.toml".into())).unwrap();
+    let t_impact = (2.0 * fall / G).sqrt();
+    let mut run = engine::start(EngineKind::Threaded, &scene, Some(1)).unwrap();
+    run.advance_to(t_impact - 0.010);
+    let stalled = stall_this_process(Duration::from_millis(10));
+    run.advance_to(t_impact + 5e-3);
+    run.quiesce();
+    let mut balls = Vec::new();
+    run.sample(&mut balls);
+    let stats = run.figures().runtime.expect("the threaded engine's figures");
+    run.shutdown();
+    let a = &balls[0];
+    let rebound = (a.velocity.y * a.velocity.y + 2.0 * G * (a.position.y - 1.5)).max(0.0).sqrt();
+    // The chain: A–B, B–floor, … until nothing approaches.
+    let (mut va, mut vb) = (-(2.0 * G * fall).sqrt(), 0.0);
+    loop {
+        if va < vb {
+            let j = -(1.0 + e) * (va - vb) / (1.0 / ma + 1.0 / mb);
+            (va, vb) = (va + j / ma, vb - j / mb);
+        } else if vb < 0.0 {
+            vb *= -e;
+        } else {
+            break;
+        }
+    }
+    eprintln!(
+        "stalled {stalled:?}: A rebounds at {rebound:.6} m/s, the chain {va:.6} ({:+.1e}); longest span {} s, \
+         {} s dropped",
+        rebound - va,
+        stats.monitor_span_max_seconds,
+        stats.clock_dropped_seconds
+    );
+    assert!(stalled >= Duration::from_millis(8), "the process stalled only {stalled:?}");
+    assert!(
+        stats.monitor_span_max_seconds <= 1e-3 + 1e-9,
+        "a span of {} s in one solve",
+        stats.monitor_span_max_seconds
+    );
+    assert!((rebound - va).abs() <= 1.2 * G * 1e-3, "A rebounds at {rebound}, the chain {va}");
+}

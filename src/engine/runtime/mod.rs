@@ -106,6 +106,9 @@ pub struct RuntimeStats {
     pub monitor_pass_seconds: f64,
     /// The longest monitor pass, s.
     pub monitor_pass_seconds_max: f64,
+    /// The longest span the monitor judged in one contact solve, s of the runtime's clock (one
+    /// period while its solves are cheap; see `monitor::Monitor::judge_span`).
+    pub monitor_span_max_seconds: f64,
     /// Contact messages (impulse + shift) the monitor sent.
     pub impulses_sent: u64,
     /// Contact messages the balls applied (equal to those sent once the runtime has settled).
@@ -639,6 +642,7 @@ impl Runtime {
             impulses_sent: self.shared.contact_messages_sent.load(Ordering::Relaxed),
             impulses_applied: reg.retired.applied + records.iter().map(|r| r.applied).sum::<u64>(),
             monitor_pass_seconds_max: self.shared.monitor_busy_max_ns.load(Ordering::Relaxed) as f64 * 1e-9,
+            monitor_span_max_seconds: self.shared.monitor_span_max_ns.load(Ordering::Relaxed) as f64 * 1e-9,
             contacts_solved: self.shared.contacts_solved.load(Ordering::Relaxed),
             contact_impacts: self.shared.contact_impacts.load(Ordering::Relaxed),
             solves_unconverged: self.shared.solves_unconverged.load(Ordering::Relaxed),

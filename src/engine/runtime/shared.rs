@@ -115,6 +115,9 @@ pub(crate) struct Shared {
     pub monitor_busy_ns: AtomicU64,
     /// The longest pass so far, ns (the monitor is its only writer).
     pub monitor_busy_max_ns: AtomicU64,
+    /// The longest span the monitor judged in one contact solve, ns (see
+    /// `Monitor::judge_span`; the monitor is the only writer; Relaxed: a statistic).
+    pub monitor_span_max_ns: AtomicU64,
     pub contact_messages_sent: AtomicU64,
     /// Contacts (pairs and walls) the monitor's solver found touching, those that got an
     /// impact (restitution) impulse, and the solves that hit an iteration cap.
@@ -187,6 +190,7 @@ impl Shared {
             monitor_passes: AtomicU64::new(0),
             monitor_busy_ns: AtomicU64::new(0),
             monitor_busy_max_ns: AtomicU64::new(0),
+            monitor_span_max_ns: AtomicU64::new(0),
             contact_messages_sent: AtomicU64::new(0),
             contacts_solved: AtomicU64::new(0),
             contact_impacts: AtomicU64::new(0),
