@@ -202,7 +202,7 @@ fn stall_this_process(gap: Duration) -> Duration {
 /// 2 to 5 ms apart put this rebound 0.037 m/s off (bound 0.034 then).
 ///
 /// Measured: the rebound −7.7e-3 m/s off the chain (lockstep's figure at dt = 1 ms, to the
-/// bit), every span one period, stalls of 12.6 to 13.6 ms. Seen to fail with every late pass
+/// bit), every span one period, stalls of 12.6 to 15.2 ms. Seen to fail with every late pass
 /// judged in one solve (`solves_are_cheap` false): the longest span 11 to 12 ms, the rebound
 /// 0.067 to 0.082 m/s low.
 #[cfg(target_os = "linux")]
