@@ -293,3 +293,35 @@ fn an_elastic_pile_of_heavy_and_light_balls_keeps_its_overlaps_small() {
     eprintln!("elastic masses pile: largest overlap {overlap:.5} of a diameter, 10-12 s");
     assert!(overlap <= 0.01, "overlap {overlap} of a diameter");
 }
+
+/// The pile of 80 balls of 100 kg and 80 of 1 kg above at e = 0.99 (walls 0.5), through the
+/// contact solver, watched every step of its landing (0–3 s): every overlap within 1 % of a
+/// diameter, as the issue asks of lockstep. It does not hold (a known limit, docs/measurements.md,
+/// session 29): at 1.879 s a 1 kg ball in a pocket of two 100 kg and two 1 kg balls moves 0.82 m
+/// in one step at 10–33 m/s, 0.43 m of it in the impact phase's replays (245 rounds: each round's
+/// Δv is replayed over the time its contact acts before the step's end, and a light ball struck
+/// back and forth by converging heavy ones adds up displacements no path of its could make) and
+/// 0.48 m in the position phase, and it ends 40 % into a 100 kg ball that was no candidate pair
+/// of the step (1.37 m away at its start). Measured: 0.396 of a diameter at 1.879 s.
+#[test]
+#[ignore = "the contact solver's replays move a light ball rattling between heavy ones further \
+            than it can travel in a step: 40 % overlap at 1.879 s (see the doc comment)"]
+fn a_landing_pile_of_heavy_and_light_balls_keeps_its_overlaps_small_at_e_0_99() {
+    let source = "name = \"masses e = 0.99\"\n[field]\nwidth = 20.0\nheight = 30.0\nrestitution = 0.5\n\
+         [simulation]\ndt = 0.001\nseed = 7\nmax-balls = 4096\n[effects]\ncollisions = { restitution = 0.99 }\n\
+         gravity = { g = [0.0, -9.81] }\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\n\
+         region = [0.0, 10.0, 20.0, 30.0]\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\n\
+         region = [0.0, 10.0, 20.0, 30.0]\n";
+    let scene = ballfield::Scene::from_toml_str(source, &ballfield::scene::Origin("test".into())).unwrap();
+    let mut engine = Lockstep::new(&scene);
+    let (mut overlap, mut at) = (0.0f64, 0.0);
+    for _ in 0..3000 {
+        engine.step();
+        let o = engine.diagnostics().largest_overlap_ratio;
+        if o > overlap {
+            (overlap, at) = (o, engine.time());
+        }
+    }
+    eprintln!("masses pile at e = 0.99, landing: largest overlap {overlap:.5} of a diameter at {at:.3} s");
+    assert!(overlap <= 0.01, "overlap {overlap} of a diameter at {at} s");
+}
