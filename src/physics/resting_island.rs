@@ -323,7 +323,6 @@ mod tests {
             plane: 0.0,
             tau: 0.0,
             persistent: true,
-            late: false,
             bias: 0.0,
             inverse_mass_a: wa,
             inverse_mass_b: wb,

@@ -413,7 +413,6 @@ impl ContactSolver {
                 }
                 if let Some(mut c) = pair_contact(body(i), body(j), inputs.span, inputs.restitution) {
                     c.key = n as u32;
-                    c.late = true;
                     self.lists[l].push(c);
                     p.listed = true;
                     added += 1;

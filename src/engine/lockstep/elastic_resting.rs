@@ -339,7 +339,6 @@ fn apart_contact(
         plane: 0.0,
         tau: NEVER,
         persistent: false,
-        late: false,
         bias: 0.0,
         inverse_mass_a: wa,
         inverse_mass_b: wb,

@@ -966,7 +966,8 @@ impl ContactPass {
     }
 
     /// Which of the pass's balls sleep from the span's end (`sleep_now`): the islands of touching
-    /// balls (the solve's resting contacts) that touch something and whose every ball has been
+    /// balls (the solve's resting contacts, and the candidate pairs: balls that may touch within
+    /// a span) that touch something and whose every ball has been
     /// quiet for [`TIME_TO_SLEEP`] (see `physics::sleep`). Keeps each ball's quiet stretch and
     /// its walls' impulses over it, and books the islands that sleep with their walls' mean
     /// force.
@@ -991,6 +992,14 @@ impl ContactPass {
                 islands.join(a as u32, b as u32);
             }
         });
+        // Balls that may touch within a span (the candidate pairs) sleep together too: a sleeping
+        // ball is woken by an awake one within that reach (`find_pairs`), so two quiet islands a
+        // hair apart, each falling asleep while the other was not quite due, woke each other
+        // every half second for ever (a settled 150-ball pile: 300 balls put to sleep and woken
+        // a second, none asleep after 10 s).
+        for &(a, b) in &self.pairs {
+            islands.join(a, b);
+        }
         self.island_ready.clear();
         self.island_ready.resize(n, s.may_sleep);
         self.island_touches.clear();
