@@ -80,6 +80,9 @@
 //! clock moving; [`World::note_instant`] bounds them: a ball's 17th slow collision at one
 //! instant resolves its cluster of touching balls at once ([`World::resolve_cluster`]), its 65th
 //! puts it to rest where it is, and any ball's 65,536th at one instant, in any scene, does too.
+//! A wedged pair, or a cluster the resolution leaves jammed, that touches no wall and no ball at
+//! rest through its touching balls is held by nothing: it moves on as one at its centre of mass's
+//! velocity instead ([`World::centre_velocity`]), keeping its momentum.
 //!
 //! **Rounding.** An event is the first instant a gap function is `≤ 0` and decreasing
 //! (`physics::event`, after Bannerman et al. 2014), so a pair that touches or overlaps after
@@ -278,6 +281,10 @@ pub struct ExactCounters {
     /// between balls at rest, whose balls' small vertical motions press its contacts through
     /// normals a hair off the horizontal); such a cluster comes to rest where it is.
     pub cluster_jams: u64,
+    /// Clusters that the wedged and jammed rules found held by nothing (no wall, no ball at rest
+    /// among their contacts: a light ball rattling between two heavy ones closing on it in free
+    /// flight), which move on as one at their centre of mass's velocity, their momentum kept.
+    pub clumps: u64,
 }
 
 /// The earliest collision a ball's last prediction found among its neighbours: its instant
@@ -1143,7 +1150,9 @@ impl World {
     ///   ([`World::resolve_cluster`]: plastic, or at rest where jammed);
     /// - a collision with a ball at rest, or with a wall, is plastic (e = 0, the rest model's
     ///   hop still giving the minimum rebound to a ball pressed where it cannot rest);
-    /// - the [`WEDGED_AT_INSTANT`]th puts the ball to rest where it is.
+    /// - the [`WEDGED_AT_INSTANT`]th puts the ball to rest where it is (with the moving balls it
+    ///   touches moving on as one instead if none of them touches a wall or a ball at rest:
+    ///   [`World::clump`]).
     ///
     /// In any scene, a ball's [`ELASTIC_AT_INSTANT`]th collision at one instant of any speed puts
     /// it to rest too: a backstop that no run seen has reached. Fast collisions at one instant
@@ -1218,12 +1227,19 @@ impl World {
             break;
         }
         self.counters.collisions += 1;
-        if jammed {
-            // Held by its own contacts: the whole cluster comes to rest where it is.
+        // Jammed with nothing to hold it (no wall, no ball at rest): it moves on as one, its
+        // momentum kept; held by its own contacts and its supports, it comes to rest where it is.
+        let clump = if jammed { self.centre_velocity(&members, &contacts) } else { None };
+        if clump.is_some() {
+            self.counters.clumps += 1;
+        } else if jammed {
             self.counters.cluster_jams += 1;
         }
         for &m in &members {
-            if jammed {
+            if let Some(v) = clump {
+                self.hot[m].v = v;
+                self.settle(m);
+            } else if jammed {
                 self.come_to_rest(m);
             } else {
                 self.settle(m);
@@ -1237,6 +1253,48 @@ impl World {
         self.members = members;
         self.contacts = contacts;
         self.lambda = lambda;
+    }
+
+    /// The velocity of the centre of mass of `members` (moving balls, brought to now) if none of
+    /// `contacts` (theirs, as [`World::gather_cluster`] lists them) is on a wall or a ball at
+    /// rest: a cluster that nothing outside it holds, which the inelastic rules make move as one
+    /// rather than stop (stopped, its momentum would go to walls it does not touch).
+    fn centre_velocity(&self, members: &[usize], contacts: &[Contact]) -> Option<DVec2> {
+        if contacts.iter().any(|c| !matches!(c, Contact::Pair(..))) {
+            return None;
+        }
+        let (mut p, mut m) = (DVec2::ZERO, 0.0);
+        for &k in members {
+            p += self.cold[k].mass * self.hot[k].v;
+            m += self.cold[k].mass;
+        }
+        Some(p / m)
+    }
+
+    /// Ends a wedged collision of balls `i` and `j` (see [`World::note_instant`]) when nothing
+    /// holds them: the moving balls touching them, through each other, move on as one at their
+    /// centre of mass's velocity. Returns false, changing nothing, when one of those touches a
+    /// wall or a ball at rest (the caller puts `i` and `j` to rest where they are).
+    fn clump(&mut self, i: usize, j: usize) -> bool {
+        let mut members = std::mem::take(&mut self.members);
+        let mut contacts = std::mem::take(&mut self.contacts);
+        self.gather_cluster([i, j], &mut members, &mut contacts);
+        let clump = self.centre_velocity(&members, &contacts);
+        if let Some(v) = clump {
+            self.counters.clumps += 1;
+            for &m in &members {
+                self.hot[m].v = v;
+                self.settle(m);
+                self.restart_course(m);
+            }
+            for &m in &members {
+                self.predict(m);
+            }
+            self.predict_others([i, j]);
+        }
+        self.members = members;
+        self.contacts = contacts;
+        clump.is_some()
     }
 
     /// The moving balls that touch `seeds`, through each other, into `members` (each brought to
@@ -1382,7 +1440,12 @@ impl World {
         let slow_hits = if vn > -self.params.collapse_speed { hits } else { 0 };
         let moving = |w: &World, k: usize| w.cold[k].motion != Motion::Resting;
         if hits > ELASTIC_AT_INSTANT || slow_hits > self.limits.1 {
-            // Wedged: it comes to rest where it is (see `note_instant`).
+            // Wedged: it comes to rest where it is (see `note_instant`), or, held by nothing,
+            // moves on with the balls it touches as one.
+            if moving(self, i) && moving(self, j) && self.clump(i, j) {
+                self.counters.collisions += 1;
+                return;
+            }
             for k in [i, j] {
                 if moving(self, k) {
                     self.counters.wedged += 1;
