@@ -1276,6 +1276,9 @@ impl World {
     /// centre of mass's velocity. Returns false, changing nothing, when one of those touches a
     /// wall or a ball at rest (the caller puts `i` and `j` to rest where they are).
     fn clump(&mut self, i: usize, j: usize) -> bool {
+        if self.held_by_something([i, j]) {
+            return false;
+        }
         let mut members = std::mem::take(&mut self.members);
         let mut contacts = std::mem::take(&mut self.contacts);
         self.gather_cluster([i, j], &mut members, &mut contacts);
@@ -1291,10 +1294,60 @@ impl World {
                 self.predict(m);
             }
             self.predict_others([i, j]);
+        } else {
+            // Found held after all (the gathering lists contacts from the balls brought to now):
+            // the balls it made free go on from now on their own courses.
+            for &m in &members {
+                self.restart_course(m);
+                self.predict(m);
+            }
         }
         self.members = members;
         self.contacts = contacts;
         clump.is_some()
+    }
+
+    /// Whether a moving ball touching `seeds`, through each other, slides on a wall, touches one
+    /// or touches a ball at rest (as [`World::gather_cluster`] would list its contacts), found
+    /// without changing any ball: the wedged rule that asks leaves them as they are if so.
+    fn held_by_something(&mut self, seeds: [usize; 2]) -> bool {
+        self.epoch = self.epoch.wrapping_add(1);
+        let mut found = Vec::new();
+        for k in seeds {
+            if self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting {
+                self.mark[k] = self.epoch;
+                found.push(k);
+            }
+        }
+        let mut near = Vec::new();
+        let mut g = 0;
+        while g < found.len() {
+            let m = found[g];
+            g += 1;
+            if matches!(self.cold[m].motion, Motion::Sliding(_)) {
+                return true;
+            }
+            let (x, r) = (self.at(m).0, self.hot[m].r);
+            let tol = 1e-6 * self.cold[m].diameter;
+            if (0..4).any(|w| self.wall_gap(w, x, r) <= tol) {
+                return true;
+            }
+            near.clear();
+            self.cells.for_each_near(m, |k| near.push(k));
+            for &k in &near {
+                if k == m || !self.touching(m, k) {
+                    continue;
+                }
+                if self.cold[k].motion == Motion::Resting {
+                    return true;
+                }
+                if self.mark[k] != self.epoch {
+                    self.mark[k] = self.epoch;
+                    found.push(k);
+                }
+            }
+        }
+        false
     }
 
     /// The moving balls that touch `seeds`, through each other, into `members` (each brought to
