@@ -540,37 +540,37 @@ fn elastic_column_left(kind: EngineKind) -> (f64, f64) {
     (kinetic, speed)
 }
 
-/// [`elastic_column_left`] on the threaded runtime: at rest (measured 0 J and 0 m/s: its
-/// monitor's contact solver takes the slow bounces as resting contacts, and the column sleeps).
-/// Bounds: 1e-9 J and 1e-6 m/s a ball (lockstep fails them, see the next test).
+/// [`elastic_column_left`] on lockstep and the threaded runtime: at rest (measured: lockstep
+/// 2.6e-26 J and 2.3e-13 m/s a ball, threaded 0 J and 0 m/s, its column asleep). Bounds: 1e-9 J
+/// and 1e-6 m/s a ball. Lockstep sent every e = 1 field through its elastic passes until
+/// 2026-12-07, where the column kept a cycle of three steps in which the middle ball moved down
+/// at 2·g·dt every step and stayed where it was (1.9e-4 J a ball, 0.0196 m/s: the passes handed
+/// its approach to the bottom ball, the finish pass stopped that one on the floor, and the next
+/// step's pair push lifted it back, giving back what the floor took); a field whose walls take
+/// energy now goes through the contact solver, whose rules for a settling pile hold for its
+/// elastic contacts too (seen to fail so, with the elastic passes: 1.9e-4 J).
 #[test]
-fn an_elastic_column_on_a_dissipative_floor_comes_to_rest_on_threaded() {
-    let _s = serial();
-    let (kinetic, speed) = elastic_column_left(EngineKind::Threaded);
-    eprintln!("threaded: kinetic ≤ {kinetic:e} J, speed ≤ {speed:e} m/s at 2–3 s");
-    assert!(kinetic <= 1e-9 && speed <= 1e-6, "threaded: kinetic {kinetic} J, speed {speed} m/s");
-}
-
-/// [`elastic_column_left`] on lockstep and the exact engine, which do not bring it to rest (a
-/// known limit, docs/measurements.md, session 28). Lockstep keeps a cycle of three steps in
-/// which the middle ball moves down at 2·g·dt every step and stays where it is (1.9e-4 J a ball,
-/// 0.0196 m/s): its elastic passes hand the middle ball's approach to the bottom one, the finish
-/// pass stops that one on the floor, and the next step's pair push lifts it back, which gives
-/// back what the floor took. The exact engine keeps the top ball hopping a micrometre high on the
-/// two below (1.1e-5 J, 4.7e-3 m/s): slower than its collapse speed, the hop meets a stack its
-/// rest model holds immovable, elastically.
-#[test]
-#[ignore = "lockstep keeps a three-step cycle (1.9e-4 J a ball) and the exact engine a \
-            micrometre hop (1.1e-5 J): see the doc comment"]
-fn an_elastic_column_on_a_dissipative_floor_comes_to_rest_on_lockstep_and_exact() {
+fn an_elastic_column_on_a_dissipative_floor_comes_to_rest_on_lockstep_and_threaded() {
     let _s = serial();
     let mut failures = Vec::new();
-    for kind in [EngineKind::Lockstep, EngineKind::Exact] {
+    for kind in [EngineKind::Lockstep, EngineKind::Threaded] {
         let (kinetic, speed) = elastic_column_left(kind);
         eprintln!("{kind}: kinetic ≤ {kinetic:e} J, speed ≤ {speed:e} m/s at 2–3 s");
         check!(failures, kinetic <= 1e-9 && speed <= 1e-6, "{kind}: kinetic {kinetic} J, speed {speed} m/s");
     }
     none_failed(failures);
+}
+
+/// [`elastic_column_left`] on the exact engine, which keeps the top ball hopping a micrometre
+/// high on the two below (1.1e-5 J, 4.7e-3 m/s): slower than its collapse speed, the hop meets a
+/// stack its rest model holds immovable, elastically.
+#[test]
+#[ignore = "the exact engine keeps a micrometre hop (1.1e-5 J): see the doc comment"]
+fn an_elastic_column_on_a_dissipative_floor_comes_to_rest_on_exact() {
+    let _s = serial();
+    let (kinetic, speed) = elastic_column_left(EngineKind::Exact);
+    eprintln!("exact: kinetic ≤ {kinetic:e} J, speed ≤ {speed:e} m/s at 2–3 s");
+    assert!(kinetic <= 1e-9 && speed <= 1e-6, "exact: kinetic {kinetic} J, speed {speed} m/s");
 }
 
 /// The drop over restitutions and mass ratios, on `kind`: A (mass `ma`) from 1 m onto B (`mb`)

@@ -592,7 +592,7 @@ impl Lockstep {
                     &walls,
                     h,
                     resting_drift(self.integrator, 1),
-                    &Tolerances::new(largest, h),
+                    &Tolerances::new(largest, h, true),
                 );
                 self.counters.resting += resting.resting;
                 self.counters.unconverged += u64::from(!resting.converged);
@@ -610,7 +610,7 @@ impl Lockstep {
                 span: h,
                 // Contacts are solved after every sub-step, each one step of the integrator.
                 drift: resting_drift(self.integrator, 1),
-                tolerances: Tolerances::new(largest, h),
+                tolerances: Tolerances::new(largest, h, false),
                 gravity,
                 key,
                 key_acceleration,
@@ -840,7 +840,7 @@ impl Lockstep {
     /// dense the field, and the walls through the finish pass; otherwise through the contact
     /// solver, which takes the walls as contacts (see the module comment).
     fn elastic(&self) -> bool {
-        self.effects.collisions.is_some_and(|c| c.restitution >= 1.0)
+        self.effects.collisions.is_some_and(|c| c.restitution >= 1.0) && self.field.restitution >= 1.0
     }
 
     /// Energies, momentum, overlap and wall impulses now.

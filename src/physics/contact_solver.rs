@@ -772,7 +772,7 @@ impl ImpactScratch {
             // close, which the resting phase absorbs. It is struck when this span's impacts set
             // it approaching (a later round).
             // (Elastic contacts keep every approach: e = 1 keeps the energy exactly.)
-            let carried = first && c.persistent && c.impulse > 0.0 && c.restitution < 1.0;
+            let carried = first && c.persistent && c.impulse > 0.0 && !tolerances.elastic;
             // A contact of a resting cluster (touching since the span began) that approaches too
             // slowly to keep any of its restitution (see [`settling`]) would be stopped dead: the
             // resting phase stops it, together with every other contact of its cluster. Struck
@@ -782,7 +782,7 @@ impl ImpactScratch {
             // (Elastic contacts keep every approach, as above. Without a uniform acceleration the
             // threshold is a rounding, and so is such an approach: the rounds stop it exactly.)
             let stopped =
-                tolerances.weighed && c.persistent && c.restitution < 1.0 && settling(-vn, impact_threshold) == 0.0;
+                tolerances.weighed && c.persistent && !tolerances.elastic && settling(-vn, impact_threshold) == 0.0;
             if vn < -impact_threshold && !carried && !stopped {
                 // A contact that touched since the span began is part of a resting cluster: its
                 // impulse acts at the end of the span. Replaying it from the striking impact's
@@ -791,7 +791,7 @@ impl ImpactScratch {
                 // energy that feeds the next impacts (a pile at e = 0.5 never settled so). The
                 // price is a chain through resting contacts placed up to Δv·h off. (Elastic
                 // contacts are replayed: e = 1 keeps the energy, potential included, exactly.)
-                let time = if c.persistent && c.restitution < 1.0 {
+                let time = if c.persistent && !tolerances.elastic {
                     0.0
                 } else {
                     let mut time = c.tau.min(self.latest[c.a as usize]);
@@ -1095,11 +1095,18 @@ pub struct Tolerances {
     /// Whether a uniform acceleration acts (gravity, the pull): contacts then carry weight, and
     /// the thresholds above are more than a rounding.
     pub weighed: bool,
+    /// Whether every contact keeps energy (balls and walls of restitution 1). The rules that let
+    /// a resting pile settle (see [`ImpactScratch::row`]) are then off: such a field has no
+    /// energy to lose, and e = 1 strikes every approach. Where any contact takes energy, a pile
+    /// comes to rest, and they hold for every contact, elastic ones included: a column of e = 1
+    /// balls on a floor of 0.5 otherwise hands its top ball's approach down and back for ever.
+    pub elastic: bool,
 }
 
 impl Tolerances {
-    /// The tolerances for the largest uniform acceleration (m/s²) and the span (s).
-    pub fn new(largest_acceleration: f64, span: f64) -> Self {
+    /// The tolerances for the largest uniform acceleration (m/s²) and the span (s), in a field
+    /// whose contacts all keep energy or not (`elastic`, see [`Tolerances::elastic`]).
+    pub fn new(largest_acceleration: f64, span: f64, elastic: bool) -> Self {
         let a_h = largest_acceleration * span;
         Tolerances {
             impact: 0.5 * a_h + 1e-12,
@@ -1108,6 +1115,7 @@ impl Tolerances {
             slop: 5e-3,
             reach_gap: 2.0 * a_h * span,
             weighed: largest_acceleration > 0.0,
+            elastic,
         }
     }
 }
@@ -1542,7 +1550,7 @@ impl ContactSolver {
         self.velocity.extend(balls.iter().map(|b| b.velocity));
         self.ids.extend(balls.iter().map(|b| b.id));
         let largest_acceleration = self.list_contacts(balls, pairs, span, e, &field);
-        let tolerance = Tolerances::new(largest_acceleration, span);
+        let tolerance = Tolerances::new(largest_acceleration, span, e >= 1.0 && field.restitution >= 1.0);
         let mut tally = SolveTally { converged: true, ..Default::default() };
         let impacts = self.impacts(balls, pairs, span, e, &field, &tolerance);
         tally.contacts = self.lists[0].iter().filter(|c| c.tau != NEVER).count() as u64;
@@ -1871,13 +1879,13 @@ mod tests {
         let mut x: Vec<DVec2> = balls.iter().map(|b| b.position).collect();
         let mut v: Vec<DVec2> = balls.iter().map(|b| b.velocity).collect();
         let mut scratch = ImpactScratch::default();
-        let first = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3), true, &mut scratch);
+        let first = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3, false), true, &mut scratch);
         assert_eq!((first.rounds, first.converged), (MAX_IMPACT_ROUNDS, false));
         // The impulse has crossed one contact a round: ball 1,000 carries it.
         assert!((v[MAX_IMPACT_ROUNDS as usize].x - 1.0).abs() < 1e-12, "{}", v[MAX_IMPACT_ROUNDS as usize].x);
-        let again = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3), false, &mut scratch);
+        let again = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3, false), false, &mut scratch);
         assert_eq!((again.rounds, again.converged), (0, false));
-        let next = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3), true, &mut scratch);
+        let next = impact_phase(&mut lists, &mut x, &mut v, &Tolerances::new(0.0, 1e-3, false), true, &mut scratch);
         assert!(next.rounds > 0, "a new span has its budget again");
     }
 
