@@ -269,8 +269,10 @@ fn piles_of_unequal_balls_and_a_snug_box_settle() {
 /// balls keep their energy; only the walls take any), but light balls rattling in pockets between
 /// heavy ones and a wall must not be pressed into them. Watched every step from 10 to 12 s: the
 /// largest overlap stays within 1 % of a diameter, the bound for lockstep. Measured:
-/// 0.755 % (with at most 64 position passes a step instead of 256: 0.72 % on one build and
-/// 1.10 % on the next, which only moved the pile's chaos). Before the resting phase looked for balls the elastic passes push past a wall (out of
+/// 0.500 % (since 2026-12-07, when a field whose walls take energy went through the contact
+/// solver at e = 1 too; 0.755 % through the elastic passes, and with at most 64 position passes
+/// a step instead of 256 there, 0.72 % on one build and 1.10 % on the next, which only moved the
+/// pile's chaos). Before the resting phase looked for balls the elastic passes push past a wall (out of
 /// a pair whose heavy ball takes a hundredth of the push), a light ball on the floor stayed 2.6 %
 /// into a heavy one (2.85 % was this test's figure, its bound 3.5 %); seen to fail that way again
 /// with those balls left out: 4.3 %. (Half-second samples of `lockstep_timeline` on the scene, 3
