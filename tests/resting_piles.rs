@@ -71,6 +71,23 @@ fn watch(engine: &mut Lockstep, mass: f64) -> Rest {
     Rest { floor, overlap, kinetic, moved }
 }
 
+/// 80 balls of 100 kg and 80 of 1 kg, all 1 m across, generated in the top two thirds of a
+/// 20 m × 30 m field.
+const MASSES: &str = "[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\n\
+    region = [0.0, 10.0, 20.0, 30.0]\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\n\
+    region = [0.0, 10.0, 20.0, 30.0]\n";
+
+/// A scene named `name` of the balls `generate` (TOML `[[generate]]` tables) in a field of
+/// `size` (m) whose walls have restitution 0.5, the balls' `e`, under gravity, dt 1 ms, seed 7.
+fn pile_scene(name: &str, (width, height): (f64, f64), e: f64, generate: &str) -> ballfield::Scene {
+    let source = format!(
+        "name = \"{name}\"\n[field]\nwidth = {width}\nheight = {height}\nrestitution = 0.5\n[simulation]\n\
+         dt = 0.001\nseed = 7\nmax-balls = 4096\n[effects]\ncollisions = {{ restitution = {e} }}\n\
+         gravity = {{ g = [0.0, -9.81] }}\n{generate}"
+    );
+    ballfield::Scene::from_toml_str(&source, &ballfield::scene::Origin("test".into())).unwrap()
+}
+
 /// Dropped at e = 0, 0.3, 0.5, 0.8 and 0.9, the pile settles within 12 s and then, for a second:
 /// the floor carries its weight within 1 %, no overlap exceeds 1 % of a diameter, and nothing
 /// moves a player could see (half a pixel at 10 px/m: 5 cm in the second). Measured (12 s
@@ -247,13 +264,7 @@ fn a_heavy_ball_on_a_light_one_rests_at_every_e_and_mass_ratio() {
 #[test]
 fn piles_of_unequal_balls_and_a_snug_box_settle() {
     let piles = [
-        (
-            "masses",
-            20.0,
-            30.0,
-            0.3,
-            "[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n",
-        ),
+        ("masses", 20.0, 30.0, 0.3, MASSES),
         (
             "mixed",
             20.0,
@@ -270,12 +281,7 @@ fn piles_of_unequal_balls_and_a_snug_box_settle() {
         ),
     ];
     for (name, width, height, e, balls) in piles {
-        let source = format!(
-            "name = \"{name}\"\n[field]\nwidth = {width}\nheight = {height}\nrestitution = 0.5\n[simulation]\n\
-             dt = 0.001\nseed = 7\nmax-balls = 4096\n[effects]\ncollisions = {{ restitution = {e} }}\n\
-             gravity = {{ g = [0.0, -9.81] }}\n{balls}"
-        );
-        let scene = ballfield::Scene::from_toml_str(&source, &ballfield::scene::Origin("test".into())).unwrap();
+        let scene = pile_scene(name, (width, height), e, balls);
         let mass: f64 = scene.balls.iter().map(|b| b.mass).sum();
         let mut engine = Lockstep::new(&scene);
         engine.run(14_000);
@@ -311,12 +317,7 @@ fn piles_of_unequal_balls_and_a_snug_box_settle() {
 /// to 20 s: 0.57-1.07 %; before, 2.3-2.5 % from 10 s and 28 % at 3 s.)
 #[test]
 fn an_elastic_pile_of_heavy_and_light_balls_keeps_its_overlaps_small() {
-    let source = "name = \"masses e = 1\"\n[field]\nwidth = 20.0\nheight = 30.0\nrestitution = 0.5\n[simulation]\n\
-         dt = 0.001\nseed = 7\nmax-balls = 4096\n[effects]\ncollisions = { restitution = 1.0 }\n\
-         gravity = { g = [0.0, -9.81] }\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\n\
-         region = [0.0, 10.0, 20.0, 30.0]\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\n\
-         region = [0.0, 10.0, 20.0, 30.0]\n";
-    let scene = ballfield::Scene::from_toml_str(source, &ballfield::scene::Origin("test".into())).unwrap();
+    let scene = pile_scene("masses e = 1", (20.0, 30.0), 1.0, MASSES);
     let mut engine = Lockstep::new(&scene);
     engine.run(10_000);
     let mut overlap = 0.0f64;
@@ -343,14 +344,7 @@ fn an_elastic_pile_of_heavy_and_light_balls_keeps_its_overlaps_small() {
 #[test]
 fn a_landing_pile_of_heavy_and_light_balls_keeps_its_overlaps_within_a_step_s_reach() {
     for (e, bound) in [(0.99, 0.12), (0.5, 0.09)] {
-        let source = format!(
-            "name = \"masses e = {e}\"\n[field]\nwidth = 20.0\nheight = 30.0\nrestitution = 0.5\n\
-             [simulation]\ndt = 0.001\nseed = 7\nmax-balls = 4096\n[effects]\ncollisions = {{ restitution = {e} }}\n\
-             gravity = {{ g = [0.0, -9.81] }}\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\n\
-             region = [0.0, 10.0, 20.0, 30.0]\n[[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\n\
-             region = [0.0, 10.0, 20.0, 30.0]\n"
-        );
-        let scene = ballfield::Scene::from_toml_str(&source, &ballfield::scene::Origin("test".into())).unwrap();
+        let scene = pile_scene(&format!("masses e = {e}"), (20.0, 30.0), e, MASSES);
         let mut engine = Lockstep::new(&scene);
         let (mut overlap, mut at) = (0.0f64, 0.0);
         for _ in 0..3000 {

@@ -1236,7 +1236,8 @@ impl World {
         self.counters.collisions += 1;
         // Jammed with nothing to hold it (no wall, no ball at rest): it moves on as one, its
         // momentum kept; held by its own contacts and its supports, it comes to rest where it is.
-        let clump = if jammed { self.centre_velocity(&members, &contacts) } else { None };
+        let held = contacts.iter().any(|c| !matches!(c, Contact::Pair(..)));
+        let clump = (jammed && !held).then(|| self.centre_velocity(&members));
         if clump.is_some() {
             self.counters.clumps += 1;
         } else if jammed {
@@ -1262,35 +1263,33 @@ impl World {
         self.lambda = lambda;
     }
 
-    /// The velocity of the centre of mass of `members` (moving balls, brought to now) if none of
-    /// `contacts` (theirs, as [`World::gather_cluster`] lists them) is on a wall or a ball at
-    /// rest: a cluster that nothing outside it holds, which the inelastic rules make move as one
+    /// The velocity of the centre of mass of `members` (moving balls, brought to now): a
+    /// cluster that nothing outside it holds moves on at it as one under the inelastic rules
     /// rather than stop (stopped, its momentum would go to walls it does not touch).
-    fn centre_velocity(&self, members: &[usize], contacts: &[Contact]) -> Option<DVec2> {
-        if contacts.iter().any(|c| !matches!(c, Contact::Pair(..))) {
-            return None;
-        }
+    fn centre_velocity(&self, members: &[usize]) -> DVec2 {
         let (mut p, mut m) = (DVec2::ZERO, 0.0);
         for &k in members {
             p += self.cold[k].mass * self.hot[k].v;
             m += self.cold[k].mass;
         }
-        Some(p / m)
+        p / m
     }
 
     /// Ends a wedged collision of balls `i` and `j` (see [`World::note_instant`]) when nothing
     /// holds them: the moving balls touching them, through each other, move on as one at their
-    /// centre of mass's velocity. Returns false, changing nothing, when one of those touches a
-    /// wall or a ball at rest (the caller puts `i` and `j` to rest where they are).
+    /// centre of mass's velocity. Returns false, changing nothing, when one of those slides on a
+    /// wall, touches one or touches a ball at rest (the caller puts `i` and `j` to rest where
+    /// they are): that is looked for before any ball is changed.
     fn clump(&mut self, i: usize, j: usize) -> bool {
-        if self.held_by_something([i, j]) {
-            return false;
-        }
         let mut members = std::mem::take(&mut self.members);
-        let mut contacts = std::mem::take(&mut self.contacts);
-        self.gather_cluster([i, j], &mut members, &mut contacts);
-        let clump = self.centre_velocity(&members, &contacts);
-        if let Some(v) = clump {
+        self.flood_moving([i, j], &mut members);
+        let held = self.held_by_something(&members);
+        if !held {
+            // None slides (held otherwise), so none has a wall to leave.
+            for &m in &members {
+                self.sync(m);
+            }
+            let v = self.centre_velocity(&members);
             self.counters.clumps += 1;
             for &m in &members {
                 self.hot[m].v = v;
@@ -1301,65 +1300,39 @@ impl World {
                 self.predict(m);
             }
             self.predict_others([i, j]);
-        } else {
-            // Found held after all (the gathering lists contacts from the balls brought to now):
-            // the balls it made free go on from now on their own courses.
-            for &m in &members {
-                self.restart_course(m);
-                self.predict(m);
-            }
         }
         self.members = members;
-        self.contacts = contacts;
-        clump.is_some()
+        !held
     }
 
-    /// Whether a moving ball touching `seeds`, through each other, slides on a wall, touches one
-    /// or touches a ball at rest (as [`World::gather_cluster`] would list its contacts), found
-    /// without changing any ball: the wedged rule that asks leaves them as they are if so.
-    fn held_by_something(&mut self, seeds: [usize; 2]) -> bool {
-        self.epoch = self.epoch.wrapping_add(1);
-        let mut found = Vec::new();
-        for k in seeds {
-            if self.mark[k] != self.epoch && self.cold[k].motion != Motion::Resting {
-                self.mark[k] = self.epoch;
-                found.push(k);
-            }
-        }
-        let mut near = Vec::new();
-        let mut g = 0;
-        while g < found.len() {
-            let m = found[g];
-            g += 1;
-            if matches!(self.cold[m].motion, Motion::Sliding(_)) {
-                return true;
-            }
+    /// Whether one of `members` (moving balls, brought to now with `at`) slides on a wall,
+    /// touches one or touches a ball at rest: what [`World::list_cluster_contacts`] would list
+    /// as a wall or a support, found without changing any ball.
+    fn held_by_something(&self, members: &[usize]) -> bool {
+        members.iter().any(|&m| {
             let (x, r) = (self.at(m).0, self.hot[m].r);
             let tol = 1e-6 * self.cold[m].diameter;
-            if (0..4).any(|w| self.wall_gap(w, x, r) <= tol) {
-                return true;
-            }
-            near.clear();
-            self.cells.for_each_near(m, |k| near.push(k));
-            for &k in &near {
-                if k == m || !self.touching(m, k) {
-                    continue;
-                }
-                if self.cold[k].motion == Motion::Resting {
-                    return true;
-                }
-                if self.mark[k] != self.epoch {
-                    self.mark[k] = self.epoch;
-                    found.push(k);
-                }
-            }
-        }
-        false
+            let mut on_rest = false;
+            self.cells.for_each_near(m, |k| {
+                on_rest |= k != m && self.cold[k].motion == Motion::Resting && self.touching(m, k);
+            });
+            matches!(self.cold[m].motion, Motion::Sliding(_))
+                || (0..4).any(|w| self.wall_gap(w, x, r) <= tol)
+                || on_rest
+        })
     }
 
-    /// The moving balls that touch `seeds`, through each other, into `members` (each brought to
-    /// now and made free: a wall it slid on is one of its contacts), and their contacts.
+    /// The moving balls that touch `seeds`, through each other, into `members` (marked with
+    /// this epoch), and their contacts; each brought to now and made free (a wall it slid on is
+    /// one of its contacts).
     fn gather_cluster(&mut self, seeds: [usize; 2], members: &mut Vec<usize>, contacts: &mut Vec<Contact>) {
+        self.flood_moving(seeds, members);
+        self.list_cluster_contacts(members, contacts);
+    }
+
+    /// The moving balls that touch `seeds`, through each other, into `members`, each marked
+    /// with a new epoch; no ball is changed.
+    fn flood_moving(&mut self, seeds: [usize; 2], members: &mut Vec<usize>) {
         members.clear();
         self.epoch = self.epoch.wrapping_add(1);
         for k in seeds {
@@ -1383,12 +1356,20 @@ impl World {
                 }
             }
         }
-        for &m in members.iter() {
+        self.near = near;
+    }
+
+    /// Brings `members` (just flooded by [`World::flood_moving`], so marked with this epoch) to
+    /// now, makes them free, and lists their contacts: with each other, with the walls they
+    /// touch and with the balls at rest they touch (supports).
+    fn list_cluster_contacts(&mut self, members: &[usize], contacts: &mut Vec<Contact>) {
+        for &m in members {
             self.end_static(m);
             self.sync(m);
         }
+        let mut near = std::mem::take(&mut self.near);
         contacts.clear();
-        for &m in members.iter() {
+        for &m in members {
             let (x, r) = (self.hot[m].x, self.hot[m].r);
             let tol = 1e-6 * self.cold[m].diameter;
             for w in 0..4 {
