@@ -218,6 +218,41 @@ fn the_pull_moves_the_key_ball_as_f_over_m() {
     }
 }
 
+/// After `advance_to` and `quiesce`, `time()` is the instant the balls stand at, read off a ball
+/// falling freely from rest under gravity (its velocity is −g·t in every engine and integrator):
+/// at 0.02, 0.1 and 0.5 s on every engine. Measured: lockstep and exact to rounding; threaded
+/// 5e-8–2.8e-7 s (the balls stand at the monitor's horizon, up to a few periods past the instant
+/// asked for, and the engine's clock reads that). Bounds 1e-12 s and 5e-6 s. Seen to fail with
+/// the threaded engine's clock started when the runtime had started, not at its zero: 2e-5 to
+/// 6e-5 s behind the balls (1.6e-3 s once on a loaded machine) — the time the monitor's thread
+/// took to spawn.
+#[test]
+fn after_quiesce_the_clock_is_the_balls_instant() {
+    let _s = serial();
+    let toml = "name = \"fall\"\n[field]\nwidth = 10.0\nheight = 20.0\n[simulation]\ndt = 0.001\n\
+                [effects]\ngravity = { g = [0.0, -9.81] }\n[[balls]]\nposition = [5.0, 15.0]\nmass = 1.0\n\
+                diameter = 1.0\n";
+    let scene = Scene::from_toml_str(toml, &Origin("fall.toml".into())).unwrap();
+    for kind in EngineKind::ALL {
+        let bound = if kind == EngineKind::Threaded { 5e-6 } else { 1e-12 };
+        for t in [0.02, 0.1, 0.5] {
+            let mut e = engine::start(kind, &scene, Some(1)).unwrap();
+            e.advance_to(t);
+            e.quiesce();
+            let mut balls = Vec::new();
+            e.sample(&mut balls);
+            let fallen = -balls[0].velocity.y / 9.81;
+            eprintln!("{kind}: asked {t} s, time() {} s, the ball's fall {fallen} s", e.time());
+            assert!(
+                (e.time() - fallen).abs() <= bound,
+                "{kind}: time() reads {} s after quiesce, the balls stand at {fallen} s",
+                e.time()
+            );
+            e.shutdown();
+        }
+    }
+}
+
 /// Paused, the clock and the balls stand still; a single step advances by about its span and
 /// pauses again.
 #[test]

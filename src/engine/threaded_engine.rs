@@ -72,9 +72,11 @@ impl ThreadedEngine {
     /// once every thread is running.
     pub fn start(scene: &Scene) -> Result<ThreadedEngine, EngineError> {
         let runtime = Runtime::start(scene, runtime_config(scene))?;
+        // From the runtime's zero, so that the engine's time is the balls' own.
+        let zero = runtime.zero_instant();
         Ok(ThreadedEngine {
             runtime,
-            clock: Clock { banked: 0.0, since: Some(Instant::now()), scale: 1.0 },
+            clock: Clock { banked: 0.0, since: Some(zero), scale: 1.0 },
             step_until: None,
             cycle: scene.ball_cycle_duration(),
             placement: Placement::new(scene.seed),

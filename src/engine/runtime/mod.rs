@@ -193,6 +193,9 @@ pub struct Runtime {
     inboxes: Inboxes,
     monitor: Mutex<Option<JoinHandle<()>>>,
     started: Instant,
+    /// The instant at which the runtime's clock read the instant the balls begin at, once the
+    /// time their threads took to spawn was dropped: simulated time 0 on the wall clock.
+    zero: Instant,
 }
 
 fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -211,7 +214,7 @@ impl Runtime {
         let config = RuntimeConfig { max_balls: config.max_balls.max(scene.balls.len()), ..config };
         let params =
             Params { field: scene.field, effects: scene.effects, integrator: scene.integrator, time_scale: 1.0 };
-        let runtime = Runtime {
+        let mut runtime = Runtime {
             shared: Arc::new(Shared::new(config, params)),
             registry: Mutex::new(Registry {
                 balls: Vec::new(),
@@ -224,6 +227,7 @@ impl Runtime {
             inboxes: Arc::new(RwLock::new(vec![None; config.max_balls])),
             monitor: Mutex::new(None),
             started: Instant::now(),
+            zero: Instant::now(),
         };
         // The instant the balls begin at and the monitor's first span starts from (see
         // `Runtime::insert`). Release: see `Shared::horizon`.
@@ -239,9 +243,12 @@ impl Runtime {
         // periods and the whole field starts at one instant, with the caller's clock. The
         // monitor is not running yet, so this is the offset's only writer. Relaxed load: no
         // other thread writes it; Release store: see `Shared::clock_offset`.
-        let spawned = shared.clock(Instant::now()).saturating_sub(begin);
+        let zero = Instant::now();
+        let spawned = shared.clock(zero).saturating_sub(begin);
         let offset = shared.clock_offset.load(Ordering::Relaxed);
         shared.clock_offset.store(offset + spawned, Ordering::Release);
+        // The clock now reads `begin` at `zero`.
+        runtime.zero = zero;
         let (shared, inboxes) = (runtime.shared.clone(), runtime.inboxes.clone());
         let monitor = std::thread::Builder::new()
             .name("collision-monitor".into())
@@ -249,6 +256,14 @@ impl Runtime {
             .map_err(|e| EngineError::Spawn(e.to_string()))?;
         *runtime.monitor.lock() = Some(monitor);
         Ok(runtime)
+    }
+
+    /// The wall-clock instant of simulated time 0: the runtime's clock read the balls' starting
+    /// instant then (the time their threads took to spawn dropped from it). An engine clock that
+    /// starts here counts the balls' own time; one started when [`Runtime::start`] returned ran
+    /// behind them by the monitor's spawn (about 20 µs).
+    pub fn zero_instant(&self) -> Instant {
+        self.zero
     }
 
     /// The configuration the runtime runs with.
