@@ -39,7 +39,7 @@ use crate::engine::EngineError;
 use crate::physics::{
     Ball, BallId, BallKind, Bodies, BodyProps, BroadPhase, Diagnostics, Drag, Effects, Field, Forces, Integrator,
     IntegratorScratch, PointForce, SpanRates, StepPolicy, TOUCH_MARGIN, Tolerances, WallImpulses, cap_speed,
-    contact_ball_wall, drag_rate, drag_rate_bound, integrate, measure, near_a_wall, resting_drift,
+    contact_ball_wall, drag_rate, drag_rate_bound, integrate, keeps_energy, measure, near_a_wall, resting_drift,
 };
 #[cfg(doc)]
 use crate::physics::{MAX_SPEED, MAX_TRAVEL};
@@ -610,7 +610,7 @@ impl Lockstep {
                 span: h,
                 // Contacts are solved after every sub-step, each one step of the integrator.
                 drift: resting_drift(self.integrator, 1),
-                tolerances: Tolerances::new(largest, h, false),
+                tolerances: Tolerances::new(largest, h, keeps_energy(collisions.restitution, &self.field)),
                 gravity,
                 key,
                 key_acceleration,
@@ -843,7 +843,7 @@ impl Lockstep {
     /// column of three on a floor of 0.5 never came to rest (a cycle of three steps, 1.9e-4 J a
     /// ball), where the contact solver's rules for a settling pile rest it.
     fn elastic(&self) -> bool {
-        self.effects.collisions.is_some_and(|c| c.restitution >= 1.0) && self.field.restitution >= 1.0
+        self.effects.collisions.is_some_and(|c| keeps_energy(c.restitution, &self.field))
     }
 
     /// Energies, momentum, overlap and wall impulses now.

@@ -771,7 +771,7 @@ impl ImpactScratch {
             // its approach is what the last span's resting solve left, or the gap it was let
             // close, which the resting phase absorbs. It is struck when this span's impacts set
             // it approaching (a later round).
-            // (Elastic contacts keep every approach: e = 1 keeps the energy exactly.)
+            // (Where every contact keeps energy, every approach is struck: e = 1 keeps it exactly.)
             let carried = first && c.persistent && c.impulse > 0.0 && !tolerances.elastic;
             // A contact of a resting cluster (touching since the span began) that approaches too
             // slowly to keep any of its restitution (see [`settling`]) would be stopped dead: the
@@ -779,7 +779,7 @@ impl ImpactScratch {
             // here instead, each such stop set a neighbour approaching at about the same speed,
             // struck in the next round: on the landing 1,024-ball pile, spans of a thousand
             // rounds of a few contacts each, at 5 to 9 mm/s, 20 to 40 ms a solve.
-            // (Elastic contacts keep every approach, as above. Without a uniform acceleration the
+            // (Where every contact keeps energy, every approach is struck, as above. Without a uniform acceleration the
             // threshold is a rounding, and so is such an approach: the rounds stop it exactly.)
             let stopped =
                 tolerances.weighed && c.persistent && !tolerances.elastic && settling(-vn, impact_threshold) == 0.0;
@@ -789,8 +789,8 @@ impl ImpactScratch {
                 // instant would move its balls into neighbours whose contacts rest and are not
                 // struck, an overlap the position phase then pushes out — lifting the pile,
                 // energy that feeds the next impacts (a pile at e = 0.5 never settled so). The
-                // price is a chain through resting contacts placed up to Δv·h off. (Elastic
-                // contacts are replayed: e = 1 keeps the energy, potential included, exactly.)
+                // price is a chain through resting contacts placed up to Δv·h off. (Where every
+                // contact keeps energy they are replayed: e = 1 keeps it, potential included, exactly.)
                 let time = if c.persistent && !tolerances.elastic {
                     0.0
                 } else {
@@ -1101,6 +1101,14 @@ pub struct Tolerances {
     /// comes to rest, and they hold for every contact, elastic ones included: a column of e = 1
     /// balls on a floor of 0.5 otherwise hands its top ball's approach down and back for ever.
     pub elastic: bool,
+}
+
+/// Whether every contact of a field keeps energy: balls of restitution `restitution` and walls
+/// of `field.restitution`, both 1. Both engines decide by it: lockstep sends such a field through
+/// its elastic passes, and the contact solver's rules for a settling pile are off in it
+/// ([`Tolerances::elastic`]).
+pub fn keeps_energy(restitution: f64, field: &Field) -> bool {
+    restitution >= 1.0 && field.restitution >= 1.0
 }
 
 impl Tolerances {
@@ -1550,7 +1558,7 @@ impl ContactSolver {
         self.velocity.extend(balls.iter().map(|b| b.velocity));
         self.ids.extend(balls.iter().map(|b| b.id));
         let largest_acceleration = self.list_contacts(balls, pairs, span, e, &field);
-        let tolerance = Tolerances::new(largest_acceleration, span, e >= 1.0 && field.restitution >= 1.0);
+        let tolerance = Tolerances::new(largest_acceleration, span, keeps_energy(e, &field));
         let mut tally = SolveTally { converged: true, ..Default::default() };
         let impacts = self.impacts(balls, pairs, span, e, &field, &tolerance);
         tally.contacts = self.lists[0].iter().filter(|c| c.tau != NEVER).count() as u64;

@@ -1522,8 +1522,8 @@ impl World {
         }
         let mob_i = self.mobility(i, -n);
         let mob_j = self.mobility(j, n);
-        // A slow collision with a ball held immovable in a pile (a ball hopping in a pocket of
-        // balls at rest) passes its impulse through the pile to the walls that hold it, which
+        // A collision with a ball held immovable in a pile (a ball hopping in a pocket of balls
+        // at rest, or striking one) passes its impulse through the pile to the walls that hold it, which
         // take what their restitution takes: with the balls' e = 1 on a floor of 0.5, such a hop
         // went on for ever, the pile giving back all of it.
         let held = mob_i == Mobility::Fixed || mob_j == Mobility::Fixed;
