@@ -104,6 +104,12 @@ pub struct StepCounters {
     /// Islands of resting contacts solved directly after the resting passes reached their cap
     /// (see `physics::solve_resting_islands`).
     pub islands_solved: u64,
+    /// Candidate pairs added mid-step for balls an impact sent beyond the broad phase's skin (see
+    /// `lockstep::contact_solver::ContactSolver`): light balls struck by heavy ones in a landing.
+    pub pairs_reached: u64,
+    /// Contacts listed for pairs the position passes pushed together (see
+    /// [`crate::physics::pushed_together`]).
+    pub pushed_together: u64,
     /// Sub-steps whose drag was too stiff even for the shortest sub-step, so the drag pass capped
     /// its rate at 1/h (see [`Forces::set_drag_rate_limit`]; 0 in every sane field).
     pub drag_limited: u64,
@@ -623,6 +629,8 @@ impl Lockstep {
             self.counters.resting += outcome.resting;
             self.counters.unconverged += u64::from(!outcome.converged);
             self.counters.islands_solved += outcome.islands_solved;
+            self.counters.pairs_reached += outcome.pairs_reached;
+            self.counters.pushed_together += outcome.pushed_together;
             self.wall_impulses.add_all(&outcome.walls);
             self.counters.contacts += t2.elapsed();
         }

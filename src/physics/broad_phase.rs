@@ -413,6 +413,42 @@ impl BroadPhase {
         }
     }
 
+    /// Calls `f(m)` with the slot of every ball whose shape at the last [`BroadPhase::update`]
+    /// touches the circle of `centre` and `radius` (a shape as the grid keeps them: a radius
+    /// grown by the margin and half the skin): the small balls of the cells the circle's box
+    /// (grown by one cell) covers, in slot order, then the big balls.
+    pub fn for_each_near<F: FnMut(usize)>(&self, centre: glam::DVec2, radius: f64, mut f: F) {
+        if self.slot_shape.is_empty() || self.cols == 0 || self.rows == 0 {
+            return;
+        }
+        let sa = [centre.x, centre.y, radius];
+        let reach = radius + self.cell;
+        let lo = self.cell_of_point(sa[0] - reach, sa[1] - reach);
+        let hi = self.cell_of_point(sa[0] + reach, sa[1] + reach);
+        let (x0, y0, x1, y1) = (lo % self.cols, lo / self.cols, hi % self.cols, hi / self.cols);
+        for cy in y0..=y1 {
+            let row = cy * self.cols;
+            let run = self.cell_start[row + x0] as usize..self.cell_start[row + x1 + 1] as usize;
+            for m in run {
+                if touching(&sa, &self.slot_shape[m]) {
+                    f(m);
+                }
+            }
+        }
+        for m in self.big_slots() {
+            if touching(&sa, &self.slot_shape[m]) {
+                f(m);
+            }
+        }
+    }
+
+    /// Where slot `k`'s ball was at the last [`BroadPhase::update`], and its shape's radius (its
+    /// own, grown by the margin and half the skin).
+    pub fn slot_shape(&self, k: usize) -> (glam::DVec2, f64) {
+        let s = self.slot_shape[k];
+        (glam::DVec2::new(s[0], s[1]), s[2])
+    }
+
     /// Pairs of slot k with the slots of `run` that touch it.
     #[inline(always)]
     fn visit_run<F: FnMut(usize, usize)>(&self, k: usize, run: Range<usize>, f: &mut F) {

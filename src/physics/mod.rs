@@ -35,9 +35,9 @@ pub use contact_solver::{
     BallResponse, Contact, ContactParams, ContactSolver, ImpactScratch, ImpactTally, MAX_IMPACT_ROUNDS,
     MAX_POSITION_PASSES, MAX_REDETECTIONS, MAX_RESTING_PASSES, MAX_ROUND_ITERATIONS, MAX_SUB_SPANS, NEVER, RESTED,
     SolveTally, SolverBall, TOUCH_MARGIN, Tolerances, WALL, WarmKey, impact_phase, iterate_position, iterate_resting,
-    keeps_energy, near_a_wall, nearer_walls, pair_contact, position_pass, redetect_wall, resting_begin, resting_drift,
-    resting_end, resting_pass, resting_warm_start, settling, wall_contact, wall_contact_rests, wall_gap_at_start,
-    wall_pass, wall_plane,
+    keeps_energy, near_a_wall, nearer_walls, pair_contact, position_pass, pushed_together, redetect_wall,
+    resting_begin, resting_drift, resting_end, resting_pass, resting_warm_start, settling, wall_contact,
+    wall_contact_rests, wall_gap_at_start, wall_pass, wall_plane,
 };
 pub use diagnostics::{
     Diagnostics, attraction_potential_energy, gravity_potential_energy, kinetic_energy, largest_overlap, measure,
