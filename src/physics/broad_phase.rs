@@ -401,15 +401,20 @@ impl BroadPhase {
         for k in big.clone() {
             let sa = self.slot_shape[k];
             self.visit_run(k, (k + 1)..big.end, &mut f);
-            let reach = sa[2] + self.cell;
-            let lo = self.cell_of_point(sa[0] - reach, sa[1] - reach);
-            let hi = self.cell_of_point(sa[0] + reach, sa[1] + reach);
-            let (x0, y0, x1, y1) = (lo % self.cols, lo / self.cols, hi % self.cols, hi / self.cols);
-            for cy in y0..=y1 {
-                let row = cy * self.cols;
-                let run = self.cell_start[row + x0] as usize..self.cell_start[row + x1 + 1] as usize;
-                self.visit_run(k, run, &mut f);
-            }
+            self.for_each_run_around(&sa, |run| self.visit_run(k, run, &mut f));
+        }
+    }
+
+    /// Calls `f` with the slots of each grid row's cells that the box of `shape`, grown by one
+    /// cell, covers: every small ball whose shape may touch `shape` is in one of these runs.
+    fn for_each_run_around(&self, shape: &[f64; 3], mut f: impl FnMut(Range<usize>)) {
+        let reach = shape[2] + self.cell;
+        let lo = self.cell_of_point(shape[0] - reach, shape[1] - reach);
+        let hi = self.cell_of_point(shape[0] + reach, shape[1] + reach);
+        let (x0, y0, x1, y1) = (lo % self.cols, lo / self.cols, hi % self.cols, hi / self.cols);
+        for cy in y0..=y1 {
+            let row = cy * self.cols;
+            f(self.cell_start[row + x0] as usize..self.cell_start[row + x1 + 1] as usize);
         }
     }
 
@@ -422,19 +427,13 @@ impl BroadPhase {
             return;
         }
         let sa = [centre.x, centre.y, radius];
-        let reach = radius + self.cell;
-        let lo = self.cell_of_point(sa[0] - reach, sa[1] - reach);
-        let hi = self.cell_of_point(sa[0] + reach, sa[1] + reach);
-        let (x0, y0, x1, y1) = (lo % self.cols, lo / self.cols, hi % self.cols, hi / self.cols);
-        for cy in y0..=y1 {
-            let row = cy * self.cols;
-            let run = self.cell_start[row + x0] as usize..self.cell_start[row + x1 + 1] as usize;
+        self.for_each_run_around(&sa, |run| {
             for m in run {
                 if touching(&sa, &self.slot_shape[m]) {
                     f(m);
                 }
             }
-        }
+        });
         for m in self.big_slots() {
             if touching(&sa, &self.slot_shape[m]) {
                 f(m);
