@@ -320,8 +320,7 @@ impl ContactSolver {
         self.lists.resize_with(bands + seams + 1, Vec::new);
         let key_index = inputs.key.map(&working);
         self.key_working = key_index;
-        let acceleration =
-            |i: usize| if Some(i) == key_index { inputs.gravity + inputs.key_acceleration } else { inputs.gravity };
+        let acceleration = |i: usize| acceleration_of(inputs, key_index, i);
         let body =
             |i: usize| (i as u32, fixed.id[i], x[i], v[i], acceleration(i), fixed.inverse_mass[i], fixed.radius[i]);
         let (span, e) = (inputs.span, inputs.restitution);
@@ -397,8 +396,7 @@ impl ContactSolver {
         index: &dyn Fn(usize) -> usize,
     ) -> u64 {
         let key = self.key_working;
-        let acceleration =
-            |i: usize| if Some(i) == key { inputs.gravity + inputs.key_acceleration } else { inputs.gravity };
+        let acceleration = |i: usize| acceleration_of(inputs, key, i);
         let impact = &self.impact;
         let mut added = 0;
         for c in self.lists.iter_mut().flatten().filter(|c| c.is_wall() && c.tau == NEVER) {
@@ -410,12 +408,7 @@ impl ContactSolver {
         let struck = |i: usize, j: usize| impact.struck(i) || impact.struck(j);
         added
             + list_unlisted(
-                &mut PairsAndLists::of(
-                    &mut self.band_pairs,
-                    &mut self.seam_pairs,
-                    &mut self.big_pairs,
-                    &mut self.lists,
-                ),
+                (&mut self.band_pairs, &mut self.seam_pairs, &mut self.big_pairs, &mut self.lists),
                 (x, v, fixed, key),
                 inputs,
                 index,
@@ -534,7 +527,7 @@ impl ContactSolver {
         let t = &inputs.tolerances;
         let pushed = |i: usize, j: usize| pushed_together(x[i], fixed.radius[i], x[j], fixed.radius[j], t);
         list_unlisted(
-            &mut PairsAndLists::of(&mut self.band_pairs, &mut self.seam_pairs, &mut self.big_pairs, &mut self.lists),
+            (&mut self.band_pairs, &mut self.seam_pairs, &mut self.big_pairs, &mut self.lists),
             (x, v, fixed, key),
             inputs,
             index,
@@ -680,38 +673,30 @@ impl ContactSolver {
     }
 }
 
-/// Each group's candidate pairs (bands, seams, big balls) and the contact lists, one a group.
-struct PairsAndLists<'a> {
-    groups: Vec<&'a mut Vec<Candidate>>,
-    lists: &'a mut [Vec<Contact>],
+/// The uniform acceleration of working ball `i`: gravity, and the pull on the key ball (`key`).
+fn acceleration_of(inputs: &Inputs<'_>, key: Option<usize>, i: usize) -> DVec2 {
+    if Some(i) == key { inputs.gravity + inputs.key_acceleration } else { inputs.gravity }
 }
 
-impl<'a> PairsAndLists<'a> {
-    fn of(
-        bands: &'a mut [Vec<Candidate>],
-        seams: &'a mut [Vec<Candidate>],
-        big: &'a mut Vec<Candidate>,
-        lists: &'a mut [Vec<Contact>],
-    ) -> Self {
-        PairsAndLists { groups: bands.iter_mut().chain(seams.iter_mut()).chain(std::iter::once(big)).collect(), lists }
-    }
-}
+/// The candidate pairs by group (bands, seams, big balls) and the contact lists, one a group.
+type Groups<'a> = (&'a mut [Vec<Candidate>], &'a mut [Vec<Candidate>], &'a mut Vec<Candidate>, &'a mut [Vec<Contact>]);
 
 /// Adds a contact for each candidate pair that has none this sub-step and that `want` (working
 /// indices) picks, if the pair touches within the span ([`pair_contact`]), to the list of its
 /// group (so the bands stay disjoint). Returns how many were added.
 fn list_unlisted(
-    pl: &mut PairsAndLists<'_>,
+    (bands, seams, big, lists): Groups<'_>,
     (x, v, fixed, key): (&[DVec2], &[DVec2], Fixed<'_>, Option<usize>),
     inputs: &Inputs<'_>,
     index: &dyn Fn(usize) -> usize,
     want: impl Fn(usize, usize) -> bool,
 ) -> u64 {
-    let acceleration =
-        |i: usize| if Some(i) == key { inputs.gravity + inputs.key_acceleration } else { inputs.gravity };
-    let body = |i: usize| (i as u32, fixed.id[i], x[i], v[i], acceleration(i), fixed.inverse_mass[i], fixed.radius[i]);
+    let body = |i: usize| {
+        (i as u32, fixed.id[i], x[i], v[i], acceleration_of(inputs, key, i), fixed.inverse_mass[i], fixed.radius[i])
+    };
     let mut added = 0;
-    for (l, pairs) in pl.groups.iter_mut().enumerate() {
+    let groups = bands.iter_mut().chain(seams.iter_mut()).chain(std::iter::once(big));
+    for (l, pairs) in groups.enumerate() {
         for (n, p) in pairs.iter_mut().enumerate() {
             if p.listed {
                 continue;
@@ -722,7 +707,7 @@ fn list_unlisted(
             }
             if let Some(mut c) = pair_contact(body(i), body(j), inputs.span, inputs.restitution) {
                 c.key = n as u32;
-                pl.lists[l].push(c);
+                lists[l].push(c);
                 p.listed = true;
                 added += 1;
             }
