@@ -125,7 +125,7 @@ impl Pass {
         self.pairs.clear();
         let pairs = &mut self.pairs;
         self.broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
-        let tally = self.solver.solve(&self.balls, &self.pairs, &self.params);
+        let tally = self.solver.solve(&self.balls, &self.pairs, &self.params, Some(&self.broad_phase));
         for ((s, b), r) in self.start.iter_mut().zip(&self.balls).zip(self.solver.responses()) {
             *s = (b.position + r.shift, b.velocity + r.velocity_change);
         }

@@ -72,6 +72,9 @@ struct Row {
     impacts: u64,
     contacts: u64,
     unconverged: u64,
+    /// Pairs the position passes pushed together, and pairs added beyond the broad phase's.
+    pushed: u64,
+    reached: u64,
 }
 
 fn run(args: &Args, scene: &Scene) {
@@ -110,9 +113,9 @@ fn run(args: &Args, scene: &Scene) {
     let (mut t, mut next_row) = (0.0, 0.25);
     let mut row = Row::default();
     println!(
-        "| s | solve ms, mean | longest ms | impact rounds | resting passes | impacts | contacts | at a cap | kinetic J |"
+        "| s | solve ms, mean | longest ms | impact rounds | resting passes | impacts | contacts | at a cap | pushed together | reached | kinetic J |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     while t < args.seconds {
         if args.jitter {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -140,7 +143,7 @@ fn run(args: &Args, scene: &Scene) {
         pairs.clear();
         broad_phase.for_each_touching_pair(|i, j| pairs.push((i as u32, j as u32)));
         let clock = Instant::now();
-        let tally = solver.solve(&balls, &pairs, &params);
+        let tally = solver.solve(&balls, &pairs, &params, Some(&broad_phase));
         let seconds = clock.elapsed().as_secs_f64();
         for ((s, b), r) in start.iter_mut().zip(&balls).zip(solver.responses()) {
             *s = (b.position + r.shift, b.velocity + r.velocity_change);
@@ -153,12 +156,14 @@ fn run(args: &Args, scene: &Scene) {
         row.impacts += tally.impacts;
         row.contacts += tally.contacts;
         row.unconverged += !tally.converged as u64;
+        row.pushed += tally.pushed_together;
+        row.reached += tally.pairs_reached;
         t += h;
         if t >= next_row - 1e-9 || t >= args.seconds {
             let kinetic: f64 = start.iter().zip(&props).map(|((_, v), p)| 0.5 * p.mass * v.length_squared()).sum();
             let n = row.spans as f64;
             println!(
-                "| {next_row:.2} | {:.3} | {:.2} | {:.1} | {:.1} | {:.1} | {:.0} | {} | {kinetic:.2e} |",
+                "| {next_row:.2} | {:.3} | {:.2} | {:.1} | {:.1} | {:.1} | {:.0} | {} | {} | {} | {kinetic:.2e} |",
                 row.seconds / n * 1e3,
                 row.longest * 1e3,
                 row.rounds as f64 / n,
@@ -166,6 +171,8 @@ fn run(args: &Args, scene: &Scene) {
                 row.impacts as f64 / n,
                 row.contacts as f64 / n,
                 row.unconverged,
+                row.pushed,
+                row.reached,
             );
             row = Row::default();
             next_row += 0.25;

@@ -72,8 +72,12 @@ fn replay(
                 }
             }
         }
-        let tally =
-            solver.solve(&balls, &pairs, &ContactParams { restitution: 0.8, field, span: h, drift: drift(substeps) });
+        let tally = solver.solve(
+            &balls,
+            &pairs,
+            &ContactParams { restitution: 0.8, field, span: h, drift: drift(substeps) },
+            None,
+        );
         unconverged += usize::from(!tally.converged);
         floor += tally.walls.bottom;
         time += h;

@@ -120,6 +120,12 @@ pub struct RuntimeStats {
     pub contact_impacts: u64,
     /// Solves that hit an iteration cap.
     pub solves_unconverged: u64,
+    /// Candidate pairs the monitor's position passes pushed together, listed and separated
+    /// (`physics::pushed_together`): landings of heavy and light balls.
+    pub pairs_pushed_together: u64,
+    /// Pairs the monitor added to its broad phase's for balls an impact or the position passes
+    /// sent out of their circles (see `physics::ContactSolver::solve`).
+    pub pairs_reached: u64,
     /// Wall time the runtime clock dropped because the monitor came too late to have watched it
     /// (a stalled process, a starved monitor), s.
     pub clock_dropped_seconds: f64,
@@ -660,6 +666,8 @@ impl Runtime {
             monitor_span_max_seconds: self.shared.monitor_span_max_ns.load(Ordering::Relaxed) as f64 * 1e-9,
             contacts_solved: self.shared.contacts_solved.load(Ordering::Relaxed),
             contact_impacts: self.shared.contact_impacts.load(Ordering::Relaxed),
+            pairs_pushed_together: self.shared.pairs_pushed_together.load(Ordering::Relaxed),
+            pairs_reached: self.shared.pairs_reached.load(Ordering::Relaxed),
             solves_unconverged: self.shared.solves_unconverged.load(Ordering::Relaxed),
             clock_dropped_seconds: self.shared.clock_dropped_ns.load(Ordering::Relaxed) as f64 * 1e-9,
             horizon_waits: self.shared.horizon_waits.load(Ordering::Relaxed),

@@ -997,7 +997,7 @@ impl ContactPass {
         // hair apart, each falling asleep while the other was not quite due, woke each other
         // every half second for ever (a settled 150-ball pile: 300 balls put to sleep and woken
         // a second, none asleep after 10 s).
-        for &(a, b) in &self.pairs {
+        for &(a, b) in self.pairs.iter().chain(self.solver.reached_pairs()) {
             islands.join(a, b);
         }
         self.island_ready.clear();
@@ -1076,10 +1076,14 @@ impl ContactPass {
 
     /// One solve of every contact of the span, counted, its wall impulses on the monitor's gauge.
     fn solve(&mut self, shared: &Shared, s: &PassSetting) {
-        let tally = self.solver.solve(&self.balls, &self.pairs, &s.params);
+        let tally = self.solver.solve(&self.balls, &self.pairs, &s.params, Some(&self.broad_phase));
         // Relaxed: statistics.
         shared.contacts_solved.fetch_add(tally.contacts, Ordering::Relaxed);
         shared.contact_impacts.fetch_add(tally.impacts, Ordering::Relaxed);
+        if tally.pushed_together + tally.pairs_reached > 0 {
+            shared.pairs_pushed_together.fetch_add(tally.pushed_together, Ordering::Relaxed);
+            shared.pairs_reached.fetch_add(tally.pairs_reached, Ordering::Relaxed);
+        }
         if !tally.converged {
             shared.solves_unconverged.fetch_add(1, Ordering::Relaxed);
         }

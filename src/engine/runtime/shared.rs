@@ -124,6 +124,9 @@ pub(crate) struct Shared {
     pub contacts_solved: AtomicU64,
     pub contact_impacts: AtomicU64,
     pub solves_unconverged: AtomicU64,
+    /// See `RuntimeStats::pairs_pushed_together` (Relaxed: statistics the monitor alone writes).
+    pub pairs_pushed_together: AtomicU64,
+    pub pairs_reached: AtomicU64,
     pub messages_dropped: AtomicU64,
     /// Contact responses the monitor sent by a ball's channel instead of its ring (Relaxed: a
     /// statistic, added once a pass).
@@ -194,6 +197,8 @@ impl Shared {
             contact_messages_sent: AtomicU64::new(0),
             contacts_solved: AtomicU64::new(0),
             contact_impacts: AtomicU64::new(0),
+            pairs_pushed_together: AtomicU64::new(0),
+            pairs_reached: AtomicU64::new(0),
             solves_unconverged: AtomicU64::new(0),
             messages_dropped: AtomicU64::new(0),
             responses_by_channel: AtomicU64::new(0),
