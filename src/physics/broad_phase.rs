@@ -441,6 +441,54 @@ impl BroadPhase {
         }
     }
 
+    /// Calls `add(a, b)` (slots, `a < b`) once for each pair of a ball of `beyond` with a ball
+    /// that may touch it now, unless `known` holds the pair (as slots, either order) or `accept`
+    /// turns the other ball's slot down: the balls whose shape at the last update touches the
+    /// ball's circle ([`BroadPhase::for_each_near`]), and the other balls of `beyond` whose
+    /// circles touch it. Each entry of `beyond` is a slot and the circle its ball may be in now
+    /// (centre, radius), sorted by slot; `known` is looked at only when `beyond` is not empty.
+    /// Returns how many pairs were added.
+    ///
+    /// For a ball that moved beyond the grid's view within a step or a span (struck, or pushed
+    /// by the position passes): the pairs the grid reported were those of the balls where it
+    /// saw them. Both engines' contact solvers look such balls up here.
+    pub fn for_each_pair_beyond(
+        &self,
+        beyond: &[(usize, glam::DVec2, f64)],
+        known: impl IntoIterator<Item = (u32, u32)>,
+        accept: impl Fn(usize) -> bool,
+        mut add: impl FnMut(u32, u32),
+    ) -> u64 {
+        if beyond.is_empty() {
+            return 0;
+        }
+        let is_beyond = |k: u32| beyond.binary_search_by_key(&(k as usize), |b| b.0).is_ok();
+        let mut seen: rustc_hash::FxHashSet<(u32, u32)> = known
+            .into_iter()
+            .filter(|&(a, b)| is_beyond(a) || is_beyond(b))
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        let mut added = 0;
+        for (n, &(k, centre, radius)) in beyond.iter().enumerate() {
+            let mut pair = |m: usize| {
+                let (a, b) = (k.min(m) as u32, k.max(m) as u32);
+                if m != k && accept(m) && seen.insert((a, b)) {
+                    add(a, b);
+                    added += 1;
+                }
+            };
+            // The grid knows the others where they were; one that is itself beyond is met
+            // where it may be now.
+            self.for_each_near(centre, radius, &mut pair);
+            for &(m, other, reach) in &beyond[n + 1..] {
+                if centre.distance_squared(other) < (radius + reach) * (radius + reach) {
+                    pair(m);
+                }
+            }
+        }
+        added
+    }
+
     /// Where slot `k`'s ball was at the last [`BroadPhase::update`], and its shape's radius (its
     /// own, grown by the margin and half the skin).
     pub fn slot_shape(&self, k: usize) -> (glam::DVec2, f64) {

@@ -55,7 +55,7 @@
 //! momentum; only walls exchange momentum with the field, and every wall impulse is tallied.
 
 use glam::DVec2;
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashMap;
 
 use super::ball::BallId;
 use super::broad_phase::BroadPhase;
@@ -1354,8 +1354,10 @@ pub struct ContactSolver {
     /// Candidate pairs the solve added to the caller's (see
     /// [`ContactSolver::reach_struck_balls`]).
     reached: Vec<(u32, u32)>,
-    /// Scratch of the reach: the balls beyond their circles, with the circle each may be in.
+    /// Scratch of the reach: the balls beyond their circles, with the circle each may be in,
+    /// and the pairs added.
     beyond: Vec<(usize, DVec2, f64)>,
+    added: Vec<(u32, u32)>,
     rows: Vec<RestingRow>,
     /// Every active resting contact by height (see [`order_by_height`]), then in the order the
     /// passes take them (see [`in_waves`]): the order of `rows`.
@@ -1918,8 +1920,7 @@ impl ContactSolver {
                 beyond.push((i, centre, b.radius + half_path));
             }
         }
-        beyond.sort_unstable_by_key(|b| b.0);
-        let added = self.reach(&beyond, pairs, balls.len(), shapes);
+        let added = self.reach(&mut beyond, pairs, balls.len(), shapes);
         self.beyond = beyond;
         added
     }
@@ -1937,49 +1938,48 @@ impl ContactSolver {
                 beyond.push((i, self.position[i], b.radius));
             }
         }
-        let added = self.reach(&beyond, pairs, balls.len(), shapes);
+        let added = self.reach(&mut beyond, pairs, balls.len(), shapes);
         self.beyond = beyond;
         added
     }
 
     /// Makes a candidate of each pair of a ball of `beyond` (its index, and the circle it may be
-    /// in: centre and radius; by index) with a ball (of the first `n` of `shapes`: the solver's
-    /// balls; the others are the caller's) whose circle touches that circle, unless it is one already; a ball that
-    /// is itself beyond its circle is met where it may be now. The new pairs go on `reached`,
-    /// in index order, candidates until the solve's end. Returns how many.
-    fn reach(&mut self, beyond: &[(usize, DVec2, f64)], pairs: &[(u32, u32)], n: usize, shapes: &BroadPhase) -> u64 {
+    /// in: centre and radius) with a ball that may touch it now ([`BroadPhase::for_each_pair_beyond`]:
+    /// of the first `n` of `shapes`, the solver's balls; the others are the caller's), unless it
+    /// is one already. The new pairs go on `reached`, candidates until the solve's end. Returns
+    /// how many.
+    fn reach(
+        &mut self,
+        beyond: &mut [(usize, DVec2, f64)],
+        pairs: &[(u32, u32)],
+        n: usize,
+        shapes: &BroadPhase,
+    ) -> u64 {
         if beyond.is_empty() {
             return 0;
         }
-        // The pairs of those balls that are candidates already (a scan of all of them: this
-        // happens in a few spans of a landing, never in a settled pile or a gas).
-        let is_beyond = |k: u32| beyond.binary_search_by_key(&(k as usize), |b| b.0).is_ok();
-        let mut known: FxHashSet<(u32, u32)> = FxHashSet::default();
-        for &(a, b) in pairs.iter().chain(&self.reached) {
-            if is_beyond(a) || is_beyond(b) {
-                known.insert((a.min(b), a.max(b)));
-            }
+        // In the broad phase's slots, sorted by slot.
+        let (slot, ball) = (shapes.ball_slots(), shapes.slots());
+        for b in beyond.iter_mut() {
+            b.0 = slot[b.0] as usize;
         }
-        let before = self.reached.len();
-        let reached = &mut self.reached;
-        for (q, &(k, centre, radius)) in beyond.iter().enumerate() {
-            let mut add = |slot: usize| {
-                let m = shapes.slots()[slot] as usize;
-                let (a, b) = (k.min(m) as u32, k.max(m) as u32);
-                if m != k && m < n && !is_beyond(m as u32) && known.insert((a, b)) {
-                    reached.push((a, b));
-                }
-            };
-            shapes.for_each_near(centre, radius, &mut add);
-            for &(m, other, reach) in &beyond[q + 1..] {
-                let (a, b) = (k as u32, m as u32);
-                if centre.distance_squared(other) < (radius + reach) * (radius + reach) && known.insert((a, b)) {
-                    reached.push((a, b));
-                }
-            }
-        }
+        beyond.sort_unstable_by_key(|b| b.0);
+        let known = pairs.iter().chain(&self.reached).map(|&(a, b)| (slot[a as usize], slot[b as usize]));
+        let mut added = std::mem::take(&mut self.added);
+        added.clear();
+        let count = shapes.for_each_pair_beyond(
+            beyond,
+            known,
+            |m| (ball[m] as usize) < n,
+            |a, b| {
+                let (a, b) = (ball[a as usize], ball[b as usize]);
+                added.push((a.min(b), a.max(b)));
+            },
+        );
+        self.reached.extend_from_slice(&added);
+        self.added = added;
         self.listed.resize(pairs.len() + self.reached.len(), false);
-        (self.reached.len() - before) as u64
+        count
     }
 
     /// The pairs [`ContactSolver::solve`]'s last call added to the caller's candidates (see

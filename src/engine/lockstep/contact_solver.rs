@@ -27,7 +27,7 @@
 //! its ball: a settled pile's weight is then already in place when a sub-step starts, so its
 //! passes converge at once.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::DVec2;
@@ -480,37 +480,13 @@ impl ContactSolver {
     /// over all the balls), in slot order: the same pairs in the same order on any number of
     /// threads. They stay candidates until the pairs are next found afresh. Returns how many.
     fn reach(&mut self, beyond: &[(usize, DVec2, f64)], grid: &BroadPhase) -> u64 {
-        if beyond.is_empty() {
-            return 0;
-        }
-        // The pairs of those balls that are candidates already (a scan of all of them: this
-        // happens in a few steps of a landing, never in a settled pile or a gas).
-        let is_beyond = |k: u32| beyond.binary_search_by_key(&(k as usize), |b| b.0).is_ok();
-        let mut known: HashSet<(u32, u32)> = HashSet::new();
-        for p in self.band_pairs.iter().chain(&self.seam_pairs).flatten().chain(&self.big_pairs) {
-            if is_beyond(p.k) || is_beyond(p.m) {
-                known.insert((p.k.min(p.m), p.k.max(p.m)));
-            }
-        }
-        let before = self.big_pairs.len();
-        for (n, &(k, centre, radius)) in beyond.iter().enumerate() {
-            let big = &mut self.big_pairs;
-            let mut add = |m: usize| {
-                let (a, b) = (k.min(m) as u32, k.max(m) as u32);
-                if m != k && known.insert((a, b)) {
-                    big.push(Candidate { k: a, m: b, impulse: 0.0, listed: false });
-                }
-            };
-            // The grid knows the others where they were; one that is itself beyond its half
-            // skin is met where it may be now.
-            grid.for_each_near(centre, radius, &mut add);
-            for &(m, other, reach) in &beyond[n + 1..] {
-                if centre.distance_squared(other) < (radius + reach) * (radius + reach) {
-                    add(m);
-                }
-            }
-        }
-        (self.big_pairs.len() - before) as u64
+        // The pairs of those balls that are candidates already come from a scan of all of them:
+        // this happens in a few steps of a landing, never in a settled pile or a gas.
+        let known = self.band_pairs.iter().chain(&self.seam_pairs).flatten().chain(&self.big_pairs).map(|p| (p.k, p.m));
+        let mut added = Vec::new();
+        let count = grid.for_each_pair_beyond(beyond, known, |_| true, |k, m| added.push((k, m)));
+        self.big_pairs.extend(added.into_iter().map(|(k, m)| Candidate { k, m, impulse: 0.0, listed: false }));
+        count
     }
 
     /// Adds a contact for each candidate pair without one that the position passes pushed together
