@@ -105,7 +105,8 @@ pub struct StepCounters {
     /// (see `physics::solve_resting_islands`).
     pub islands_solved: u64,
     /// Candidate pairs added mid-step for balls an impact sent beyond the broad phase's skin (see
-    /// `lockstep::contact_solver::ContactSolver`): light balls struck by heavy ones in a landing.
+    /// `lockstep::contact_solver::ContactSolver`, and the elastic passes' `reach_struck`): light
+    /// balls struck by heavy ones in a landing.
     pub pairs_reached: u64,
     /// Contacts listed for pairs the position passes pushed together (see
     /// [`crate::physics::pushed_together`]).
@@ -587,6 +588,7 @@ impl Lockstep {
                     )
                 });
                 self.counters.impulses += outcome.impulses;
+                self.counters.pairs_reached += outcome.pairs_reached;
                 self.counters.wall_contacts += outcome.wall_bounces;
                 self.wall_impulses.add_all(&outcome.walls);
                 let resting = self.elastic_resting.solve(
