@@ -5,20 +5,9 @@
 //! engine no two balls overlap by more than 1 % of a diameter at the end of any step, at every e,
 //! through the landing as well as once settled.
 
-use ballfield::Lockstep;
-use ballfield::scene::Origin;
+mod common;
 
-/// The scene at ball restitution `e` (walls 0.5), dt 1 ms, generated from `seed`.
-fn heavy_and_light(e: f64, seed: u64) -> ballfield::Scene {
-    let source = format!(
-        "name = \"heavy and light\"\n[field]\nwidth = 20\nheight = 30\nrestitution = 0.5\n\
-         [simulation]\ndt = 0.001\nseed = {seed}\n[effects]\ncollisions = {{ restitution = {e} }}\n\
-         gravity = {{ g = [0.0, -9.81] }}\n\
-         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n\
-         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n"
-    );
-    ballfield::Scene::from_toml_str(&source, &Origin("heavy and light".into())).expect("the scene loads")
-}
+use ballfield::Lockstep;
 
 /// Over the first 3.5 s (the piles land from 1.7 s on), at e = 0, 0.5, 0.99 and 1, seeds 1 to 8:
 /// the largest overlap at the end of any step stays within 1 % of a diameter. Measured
@@ -44,7 +33,7 @@ fn heavy_and_light_balls_land_without_deep_overlaps_at_every_e() {
     for e in [0.0, 0.5, 0.99, 1.0] {
         let (mut worst, mut at, mut fastest) = (0.0f64, (0, 0.0), 0.0f64);
         for seed in 1..=8 {
-            let mut engine = Lockstep::new(&heavy_and_light(e, seed));
+            let mut engine = Lockstep::new(&common::heavy_and_light(e, seed));
             for _ in 0..3500 {
                 engine.step();
                 let d = engine.diagnostics();

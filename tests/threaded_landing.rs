@@ -16,20 +16,7 @@ use ballfield::physics::{
     swept_circle,
 };
 use ballfield::runtime::{Runtime, RuntimeConfig};
-use ballfield::scene::Origin;
 use glam::DVec2;
-
-/// The scene at ball restitution `e` (walls 0.5), generated from `seed`.
-fn heavy_and_light(e: f64, seed: u64) -> ballfield::Scene {
-    let source = format!(
-        "name = \"heavy and light\"\n[field]\nwidth = 20\nheight = 30\nrestitution = 0.5\n\
-         [simulation]\ndt = 0.001\nseed = {seed}\n[effects]\ncollisions = {{ restitution = {e} }}\n\
-         gravity = {{ g = [0.0, -9.81] }}\n\
-         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n\
-         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n"
-    );
-    ballfield::Scene::from_toml_str(&source, &Origin("heavy and light".into())).expect("the scene loads")
-}
 
 /// The monitor's solve alone (no threads: the same work every run), span after span as the
 /// monitor judges them: every ball carried over the span in free motion (semi-implicit Euler
@@ -40,7 +27,7 @@ fn heavy_and_light(e: f64, seed: u64) -> ballfield::Scene {
 /// `with_shapes` false leaves the solver the candidate pairs alone. Returns the largest overlap
 /// at the end of any span (of a diameter) and the solves' tallies summed.
 fn monitor_solve_landing(e: f64, seed: u64, longest_ms: u32, with_shapes: bool) -> (f64, SolveTally) {
-    let scene = heavy_and_light(e, seed);
+    let scene = common::heavy_and_light(e, seed);
     let gravity = DVec2::new(0.0, -9.81);
     let mut balls: Vec<SolverBall> = scene
         .balls
@@ -160,7 +147,8 @@ fn heavy_and_light_balls_land_without_deep_overlaps_on_the_threaded_runtime() {
     let mut failures = Vec::new();
     for e in [0.0, 0.5, 0.99] {
         for seed in 1..=2 {
-            let rt = Runtime::start(&heavy_and_light(e, seed), RuntimeConfig::default()).expect("the runtime starts");
+            let rt = Runtime::start(&common::heavy_and_light(e, seed), RuntimeConfig::default())
+                .expect("the runtime starts");
             let (mut worst, mut at, mut now) = (0.0f64, 0.0, 0.0);
             while now < 3.6 {
                 std::thread::sleep(Duration::from_millis(40));

@@ -1706,7 +1706,6 @@ impl ContactSolver {
         field: &Field,
         tolerance: &Tolerances,
     ) -> (ImpactTally, bool) {
-        let n = balls.len();
         let mut impacts =
             impact_phase(&mut self.lists, &mut self.position, &mut self.velocity, tolerance, true, &mut self.impact);
         // Whether every pair that touches after the impacts has its contact: the impacts
@@ -1716,27 +1715,10 @@ impl ContactSolver {
             if let Some(shapes) = shapes {
                 impacts.pairs_reached += self.reach_struck_balls(balls, pairs, shapes);
             }
-            let mut added = 0;
-            for (k, &(i, j)) in pairs.iter().chain(&self.reached).enumerate() {
-                let (i, j) = (i as usize, j as usize);
-                // Whether a ball was struck first: a lookup that rules out nearly every pair, before
-                // the finiteness checks of `usable` (the same pairs pass).
-                if self.listed[k] || !(self.impact.struck(i) || self.impact.struck(j)) {
-                    continue;
-                }
-                if i >= n || j >= n || i == j || !usable(&balls[i]) || !usable(&balls[j]) {
-                    continue;
-                }
-                let now = |k: usize| {
-                    let b = &balls[k];
-                    (k as u32, b.id, self.position[k], self.velocity[k], b.acceleration, b.inverse_mass, b.radius)
-                };
-                if let Some(c) = pair_contact(now(i), now(j), span, e) {
-                    self.lists[0].push(c);
-                    self.listed[k] = true;
-                    added += 1;
-                }
-            }
+            // Whether a ball was struck: a lookup that rules out nearly every pair, before the
+            // finiteness checks of `usable` (the same pairs pass).
+            let mut added =
+                self.list_unlisted(balls, pairs, (span, e), |_, impact, i, j| impact.struck(i) || impact.struck(j));
             for c in self.lists[0].iter_mut().filter(|c| c.is_wall() && c.tau == NEVER) {
                 let a = c.a as usize;
                 if self.impact.struck(a)
@@ -1875,15 +1857,28 @@ impl ContactSolver {
         e: f64,
         tolerance: &Tolerances,
     ) -> u64 {
+        let r = |k: usize| balls[k].radius;
+        self.list_unlisted(balls, pairs, (span, e), |x, _, i, j| pushed_together(x[i], r(i), x[j], r(j), tolerance))
+    }
+
+    /// Lists a contact, taken where the balls are now, for each candidate pair (the caller's,
+    /// then `reached`) without one that `want(position, impacts, i, j)` picks and that touches
+    /// within the span ([`pair_contact`]). Returns how many.
+    fn list_unlisted(
+        &mut self,
+        balls: &[SolverBall],
+        pairs: &[(u32, u32)],
+        (span, e): (f64, f64),
+        want: impl Fn(&[DVec2], &ImpactScratch, usize, usize) -> bool,
+    ) -> u64 {
         let n = balls.len();
         let mut added = 0;
         for (k, &(i, j)) in pairs.iter().chain(&self.reached).enumerate() {
             let (i, j) = (i as usize, j as usize);
-            if self.listed[k] || i >= n || j >= n || i == j || !usable(&balls[i]) || !usable(&balls[j]) {
+            if self.listed[k] || i >= n || j >= n || i == j || !want(&self.position, &self.impact, i, j) {
                 continue;
             }
-            let (x, r) = (&self.position, |k: usize| balls[k].radius);
-            if !pushed_together(x[i], r(i), x[j], r(j), tolerance) {
+            if !usable(&balls[i]) || !usable(&balls[j]) {
                 continue;
             }
             let now = |k: usize| {

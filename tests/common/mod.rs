@@ -137,3 +137,19 @@ pub fn largest_overlap(b: &ballfield::physics::Bodies) -> f64 {
     }
     worst
 }
+
+/// Heavy and light balls landing together: 80 balls of 100 kg and 80 of 1 kg, all 1 m across,
+/// falling from up to 30 m into a 20 m wide box, at ball restitution `e` (walls 0.5), dt 1 ms,
+/// generated from `seed` (`landing_heavy_and_light.rs` on lockstep, `threaded_landing.rs` on the
+/// threaded runtime).
+pub fn heavy_and_light(e: f64, seed: u64) -> ballfield::Scene {
+    let source = format!(
+        "name = \"heavy and light\"\n[field]\nwidth = 20\nheight = 30\nrestitution = 0.5\n\
+         [simulation]\ndt = 0.001\nseed = {seed}\n[effects]\ncollisions = {{ restitution = {e} }}\n\
+         gravity = {{ g = [0.0, -9.81] }}\n\
+         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 100.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n\
+         [[generate]]\ncount = 80\ndiameter = 1.0\nmass = 1.0\nspeed = 1.0\nregion = [0.0, 10.0, 20.0, 30.0]\n"
+    );
+    ballfield::Scene::from_toml_str(&source, &ballfield::scene::Origin("heavy and light".into()))
+        .expect("the scene loads")
+}
